@@ -1,0 +1,62 @@
+"""The ``pbd`` command line (``../shared/DESCRIPTOR.md``, "Command line").
+
+Each command lives in ``tasks/commands/<name>.py`` with ``add_arguments(parser)`` and ``run(args) -> int``.
+Those modules import nothing heavy at the top, so start-up stays light: ``pbd ingest`` never imports
+Prefect, open3d or pybullet. A ``PbdError`` becomes one line on stderr and exit 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from collections.abc import Sequence
+from types import ModuleType
+
+from tasks.errors import PbdError
+
+COMMANDS: dict[str, str] = {
+    "demo": "make the sample recordings, run the whole pipeline flow over them, print where results are",
+    "synth": "record a simulated demonstration of a built-in scene",
+    "ingest": "read recordings into the store's Parquet; print their ids",
+    "learn": "segment, fit, plan the grasp and store a descriptor version",
+    "transfer": "carry a descriptor to a similar object by registering the object models",
+    "simulate": "execute a descriptor in pybullet and report success",
+    "diff": "what changed between two descriptors",
+    "archive": "run the reprocessing flow over every recording in a folder",
+    "serve": "serve the Prefect deployments with their schedules",
+}
+
+
+def _module(name: str) -> ModuleType:
+    return importlib.import_module(f"tasks.commands.{name}")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The full argument parser with every sub-command."""
+    parser = argparse.ArgumentParser(prog="pbd", description="Robot task descriptors from recorded demonstrations.")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for name, help_text in COMMANDS.items():
+        p = sub.add_parser(name, help=help_text, description=help_text)
+        p.add_argument("--store", metavar="DIR", default=None, help="artefact store (default $PBD_STORE or data/store)")
+        _module(name).add_arguments(p)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``pbd`` console script; returns the exit code."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        code: int = _module(args.command).run(args)
+    except PbdError as err:
+        print(f"pbd {args.command}: {err}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"pbd {args.command}: interrupted", file=sys.stderr)
+        return 130
+    return code
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,90 @@
+"""One exception family for pbd. The CLI turns a ``PbdError`` into one line on stderr and exit 2."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+
+class PbdError(Exception):
+    """Root of every error pbd raises on purpose (bad input, failed fit, store conflict)."""
+
+
+class RecordingError(PbdError):
+    """A recording cannot be read: names the file, the topic (if any) and what was wrong."""
+
+    def __init__(self, path: str | Path, what: str, topic: str | None = None) -> None:
+        self.path = str(path)
+        self.topic = topic
+        self.what = what
+        where = f"{self.path}" + (f" topic {topic}" if topic else "")
+        super().__init__(f"{where}: {what}")
+
+
+class TruncatedRecordingError(RecordingError):
+    """The recording ends early; ``offset`` is the byte where the damage starts."""
+
+    def __init__(self, path: str | Path, offset: int, what: str = "", topic: str | None = None) -> None:
+        self.offset = offset
+        detail = f"truncated at byte {offset}" + (f" ({what})" if what else "")
+        super().__init__(path, detail, topic)
+
+
+class TopicMapError(PbdError):
+    """A topic map (``--topics FILE``) is malformed or names topics that are not there."""
+
+    def __init__(self, path: str | Path, what: str) -> None:
+        self.path = str(path)
+        super().__init__(f"{path}: {what}")
+
+
+class DescriptorError(PbdError):
+    """A descriptor is malformed, fails its JSON Schema, or cannot be resolved."""
+
+    def __init__(self, source: str | Path, what: str) -> None:
+        self.source = str(source)
+        super().__init__(f"{source}: {what}")
+
+
+class StoreError(PbdError):
+    """The artefact store is inconsistent or a write would overwrite an artefact."""
+
+    def __init__(self, path: str | Path, what: str) -> None:
+        self.path = str(path)
+        super().__init__(f"{path}: {what}")
+
+
+class FitError(PbdError):
+    """Segmentation or model fitting cannot proceed (no markers, too few samples, NaNs)."""
+
+    def __init__(self, what: str, marker: str | None = None, span_s: tuple[float, float] | None = None) -> None:
+        self.marker = marker
+        self.span_s = span_s
+        where = ""
+        if marker:
+            where += f"marker {marker}"
+        if span_s is not None:
+            where += f"{' ' if where else ''}t={span_s[0]:.3f}..{span_s[1]:.3f} s"
+        super().__init__(f"{where}: {what}" if where else what)
+
+
+class SceneError(PbdError):
+    """A scene name, URDF or scene parameter is unknown or invalid."""
+
+
+class GraspError(PbdError):
+    """Grasp planning cannot proceed (no object model, no seed, nothing reachable)."""
+
+
+class TransferError(PbdError):
+    """Registration of two object models failed or is too poor under ``--strict``."""
+
+
+class SimulationError(PbdError):
+    """A descriptor does not fit the scene it is executed in."""
+
+
+class NotBuiltError(PbdError):
+    """A command whose capability has not been built yet."""
+
+    def __init__(self, command: str, issue: int) -> None:
+        super().__init__(f"not built yet (tracked in issue {issue})")
