@@ -1,0 +1,1 @@
+"""The recording contract (``../shared/RECORDING.md``): writing demonstrations and loading ingested ones."""
