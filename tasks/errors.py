@@ -87,4 +87,6 @@ class NotBuiltError(PbdError):
     """A command whose capability has not been built yet."""
 
     def __init__(self, command: str, issue: int) -> None:
+        self.command = command
+        self.issue = issue
         super().__init__(f"not built yet (tracked in issue {issue})")
