@@ -1,0 +1,49 @@
+"""The run summary as Markdown (the Prefect markdown artifact): descriptors, what changed, simulation results."""
+
+from __future__ import annotations
+
+import json
+from collections import Counter
+from collections.abc import Sequence
+from pathlib import Path
+
+from tasks.report.refs import EntryResult
+
+
+def _sim_cell(entry: EntryResult) -> str:
+    sim = entry.simulation
+    if sim is None:
+        return "-"
+    pairs = ", ".join(f"{a:.3f}/{t:.3f}" for a, t in zip(sim.achieved, sim.target, strict=False))
+    return f"{'success' if sim.success else 'FAILED'} ({pairs})" if pairs else ("success" if sim.success else "FAILED")
+
+
+def summary_markdown(title: str, entries: Sequence[EntryResult], report_html: Path | None) -> str:
+    """Markdown: counts by status, a table of descriptors and simulation results, and the diffs."""
+    counts = Counter(e.status for e in entries)
+    lines = [f"# {title}", ""]
+    lines.append(
+        f"{len(entries)} recordings: {counts['new']} new, {counts['changed']} changed, "
+        f"{counts['unchanged']} unchanged, {counts['failed']} failed."
+    )
+    if report_html is not None:
+        lines += ["", f"Report: `{report_html}`"]
+    lines += ["", "| recording | descriptor | id | status | chain | simulation (achieved/target) |"]
+    lines.append("| --- | --- | --- | --- | --- | --- |")
+    for e in entries:
+        d = e.descriptor
+        chain = e.extra.get("chain", "-")
+        rec = Path(e.source).name
+        if d is None:
+            lines.append(f"| {rec} | - | - | failed: {e.error or '?'} | - | - |")
+            continue
+        lines.append(f"| {rec} | {d.ref} | `{d.id[:12]}` | {e.status} | {chain} | {_sim_cell(e)} |")
+    changed = [e for e in entries if e.status == "changed"]
+    if changed:
+        lines += ["", "## What changed", ""]
+        for e in changed:
+            if e.descriptor is None:
+                continue
+            lines.append(f"### {e.descriptor.previous} → {e.descriptor.ref}")
+            lines += ["", "```json", json.dumps(e.diff, indent=1, sort_keys=True) if e.diff else "{}", "```", ""]
+    return "\n".join(lines) + "\n"
