@@ -1,0 +1,245 @@
+"""Ingest: a recording (MCAP, ROS 1 bag, rosbag2 folder) into the store's Parquet layout (RECORDING.md).
+
+``ingest_recording`` reads the raw messages (``containers``), gives every topic a role (``roles``), decodes
+the topics that have one (bulk numpy for the fixed-layout types, the recording's own definitions for the
+rest; ``extract``), and writes ``markers.parquet``, ``poses.parquet``, ``object_model.parquet`` and
+``recording.json`` into a staging folder that is renamed to ``recordings/<id>/``. Bad input raises a
+``RecordingError`` (or ``TopicMapError``) and leaves nothing in the store.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from schemas.tables import (
+    INGEST_VERSION,
+    MARKERS_FILE,
+    MARKERS_SCHEMA,
+    OBJECT_MODEL_FILE,
+    OBJECT_MODEL_SCHEMA,
+    POSES_FILE,
+    POSES_SCHEMA,
+    RECORDING_FILE,
+    SCHEMA_VERSION,
+)
+from tasks.errors import RecordingError
+from tasks.ingest import roles as rl
+from tasks.ingest.containers import KNOWN_ENCODINGS, RawRecording, read_recording
+from tasks.ingest.extract import Extracted, MarkerChunk, PoseChunk, child_frames, extract_topic
+from tasks.store import Store
+
+
+@dataclass(frozen=True)
+class IngestResult:
+    """Outcome of ``ingest_recording``: the id, its folder, whether it was new, what was lost and warned."""
+
+    recording_id: str
+    folder: Path
+    created: bool
+    lost_messages: int
+    warnings: tuple[str, ...]
+
+
+def recording_id_of(source: Path) -> str:
+    """First 16 hex digits of the SHA-256 of the recording's bytes (a folder: its files in name order)."""
+    source = Path(source)
+    h = hashlib.sha256()
+    if source.is_dir():
+        files = sorted((p for p in source.rglob("*") if p.is_file()), key=lambda p: p.relative_to(source).as_posix())
+    elif source.is_file():
+        files = [source]
+    else:
+        raise RecordingError(source, "no such file or folder")
+    for f in files:
+        with f.open("rb") as fh:
+            while block := fh.read(1 << 20):
+                h.update(block)
+    return h.hexdigest()[:16]
+
+
+def _special(raw: RawRecording) -> tuple[dict[str, str], list[str]]:
+    """Topics skipped before decoding (unknown encodings, service events): reason per topic, warnings."""
+    skipped: dict[str, str] = {}
+    for name, t in raw.topics.items():
+        if t.encoding not in KNOWN_ENCODINGS:
+            skipped[name] = f"unknown message encoding {t.encoding!r}"
+        elif rl.is_service_event(name, t.msgtype):
+            skipped[name] = "service events are not demonstration data"
+    with_msgs = [n for n, t in raw.topics.items() if t.count]
+    if with_msgs and all(n in skipped for n in with_msgs):
+        first = sorted(with_msgs, key=lambda n: ("unknown" not in skipped[n], n))[0]
+        what = skipped[first]
+        if "service" in what:
+            what = "only service-event topics, nothing to ingest"
+        raise RecordingError(raw.path, what, first if "unknown" in what else None)
+    warnings = [f"{raw.path} topic {n}: skipped ({why})" for n, why in sorted(skipped.items()) if raw.topics[n].count]
+    return skipped, warnings
+
+
+def assign_roles(raw: RawRecording, topics_map: Path | None) -> tuple[dict[str, str], list[str]]:
+    """The role of every topic (detection, then the topic map); returns roles and warnings."""
+    skipped, warnings = _special(raw)
+    path = str(raw.path)
+    detected: dict[str, str] = {}
+    for name, t in raw.topics.items():
+        if name in skipped:
+            detected[name] = rl.IGNORED
+            continue
+        frames: set[str] = set()
+        if t.count and t.msgtype in (rl.TRANSFORM, rl.TF, rl.TF_LEGACY) and "wrist" not in name.lower():
+            frames = child_frames(t, path)
+        detected[name] = rl.detect_role(name, t.msgtype, frames)
+    if topics_map is not None:
+        tmap = rl.parse_topic_map(Path(topics_map))
+        types = {n: t.msgtype for n, t in raw.topics.items()}
+        roles = rl.apply_topic_map(tmap, detected, types)
+        for name in skipped:
+            if roles[name] != rl.IGNORED:
+                msg = f"cannot use this topic ({skipped[name]})"
+                raise RecordingError(path, msg, name)
+    else:
+        roles = detected
+    return roles, warnings
+
+
+def _markers_table(chunks: list[MarkerChunk]) -> Any:
+    import pyarrow as pa  # noqa: PLC0415
+
+    merged: dict[str, list[MarkerChunk]] = {}
+    for c in chunks:
+        merged.setdefault(c.name, []).append(c)
+    names = sorted(merged)
+    idx_parts, stamp_parts, xyz_parts = [], [], []
+    for k, name in enumerate(names):
+        st = np.concatenate([c.stamps_ns for c in merged[name]])
+        xyz = np.concatenate([c.xyz for c in merged[name]]).reshape(-1, 3)
+        keep = np.isfinite(xyz).all(axis=1)
+        st, xyz = st[keep], xyz[keep]
+        order = np.argsort(st, kind="stable")
+        idx_parts.append(np.full(len(st), k, dtype=np.int32))
+        stamp_parts.append(st[order])
+        xyz_parts.append(xyz[order])
+    if names:
+        idx = np.concatenate(idx_parts)
+        stamps = np.concatenate(stamp_parts)
+        xyz = np.concatenate(xyz_parts)
+    else:
+        idx, stamps, xyz = np.zeros(0, np.int32), np.zeros(0, np.int64), np.zeros((0, 3))
+    marker = pa.DictionaryArray.from_arrays(pa.array(idx), pa.array(names, pa.string())).cast(pa.string())
+    cols = [marker, pa.array(stamps, pa.int64())] + [pa.array(np.ascontiguousarray(xyz[:, i])) for i in range(3)]
+    return pa.Table.from_arrays(cols, schema=MARKERS_SCHEMA)
+
+
+def _poses_table(chunks: list[PoseChunk]) -> Any:
+    import pyarrow as pa  # noqa: PLC0415
+
+    chunks = sorted(chunks, key=lambda c: c.frame)
+    frames, roles, stamps, vals = [], [], [], []
+    for c in chunks:
+        order = np.argsort(c.stamps_ns, kind="stable")
+        frames += [c.frame] * len(order)
+        roles += [c.role] * len(order)
+        stamps.append(c.stamps_ns[order])
+        vals.append(np.hstack([c.xyz, c.quat])[order])
+    st = np.concatenate(stamps) if stamps else np.zeros(0, np.int64)
+    v = np.concatenate(vals) if vals else np.zeros((0, 7))
+    cols = [pa.array(frames, pa.string()), pa.array(roles, pa.string()), pa.array(st, pa.int64())]
+    cols += [pa.array(np.ascontiguousarray(v[:, i])) for i in range(7)]
+    return pa.Table.from_arrays(cols, schema=POSES_SCHEMA)
+
+
+def _span(raw: RawRecording, ex: Extracted) -> tuple[int | None, int | None, int | None, int | None]:
+    """(start, end) of the samples (header stamps) and of the log times; None when empty."""
+    logs = [b.log_ns for t in raw.topics.values() for b in t.batches if len(b)]
+    log_lo = min(int(x.min()) for x in logs) if logs else None
+    log_hi = max(int(x.max()) for x in logs) if logs else None
+    st = [c.stamps_ns for c in ex.markers if len(c.stamps_ns)] + [c.stamps_ns for c in ex.poses if len(c.stamps_ns)]
+    lo = min(int(x.min()) for x in st) if st else log_lo
+    hi = max(int(x.max()) for x in st) if st else log_hi
+    return lo, hi, log_lo, log_hi
+
+
+def ingest_recording(
+    source: Path,
+    store: Store,
+    *,
+    topics: Path | None = None,
+    recover: bool = False,
+    object_model: Path | None = None,
+) -> IngestResult:
+    """Ingest the recording at ``source`` into ``store``; a no-op (``created=False``) if it is already there.
+
+    Raises ``RecordingError`` (bad or unreadable recording, naming the file and topic), ``TopicMapError``
+    (bad ``topics`` map). With ``recover``, a truncated MCAP keeps its intact messages and the loss is
+    reported in ``lost_messages`` and ``warnings``.
+    """
+    import pyarrow.parquet as pq  # noqa: PLC0415
+
+    source = Path(source)
+    rec_id = recording_id_of(source)
+    final = store.recording_dir(rec_id)
+    if store.has_recording(rec_id):
+        return IngestResult(rec_id, final, False, 0, ())
+    raw = read_recording(source, recover=recover)
+    if raw.message_count == 0:
+        n = len(raw.topics)
+        what = f"empty: no messages ({n} topic{'s' if n != 1 else ''} without messages)" if n else "empty: no messages"
+        raise RecordingError(source, what)
+    roles, warnings = assign_roles(raw, topics)
+    warnings = raw.warnings + warnings
+    ex = Extracted()
+    for name in sorted(raw.topics):
+        role = roles[name]
+        t = raw.topics[name]
+        if role != rl.IGNORED and t.count:
+            extract_topic(t, role, str(source), ex)
+    warnings += ex.warnings
+    model_info: dict[str, Any] | None = None
+    if object_model is not None:
+        from tasks.ingest.object_model import load_object_model  # noqa: PLC0415
+
+        pts, sha = load_object_model(Path(object_model))
+        if ex.object_model is not None:
+            warnings.append(f"{source}: --object-model {object_model} replaces the recording's object cloud")
+        ex.object_model = pts
+        model_info = {"path": str(object_model), "sha256": sha}
+    lo, hi, log_lo, log_hi = _span(raw, ex)
+    info: dict[str, Any] = {
+        "id": rec_id,
+        "source": str(source),
+        "container": raw.container,
+        "topics": [
+            {"name": n, "type": t.msgtype, "role": roles[n], "count": t.count} for n, t in sorted(raw.topics.items())
+        ],
+        "start_ns": lo,
+        "end_ns": hi,
+        "log_start_ns": log_lo,
+        "log_end_ns": log_hi,
+        "ingest_version": INGEST_VERSION,
+        "schema_version": SCHEMA_VERSION,
+        "meta": ex.meta,
+        "lost_messages": raw.lost_messages,
+        "warnings": warnings,
+    }
+    if model_info is not None:
+        info["object_model_file"] = model_info
+    with store.staging(f"ingest-{rec_id}") as stage:
+        pq.write_table(_markers_table(ex.markers), stage / MARKERS_FILE)
+        pq.write_table(_poses_table(ex.poses), stage / POSES_FILE)
+        if ex.object_model is not None:
+            import pyarrow as pa  # noqa: PLC0415
+
+            m = ex.object_model
+            table = pa.Table.from_arrays(
+                [pa.array(np.ascontiguousarray(m[:, i])) for i in range(3)], schema=OBJECT_MODEL_SCHEMA
+            )
+            pq.write_table(table, stage / OBJECT_MODEL_FILE)
+        (stage / RECORDING_FILE).write_text(json.dumps(info, indent=2) + "\n")
+        created = store.publish_dir(stage, final)
+    return IngestResult(rec_id, final, created, raw.lost_messages, tuple(warnings))

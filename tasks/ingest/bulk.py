@@ -1,0 +1,149 @@
+"""Bulk numpy decoding of the high-volume fixed-layout messages from raw CDR / ROS 1 bytes.
+
+``PointStamped``, ``PoseStamped`` and ``TransformStamped`` are a header (stamp, frame id string) followed by
+float64s. Messages of one topic whose payloads have the same length (and the same string lengths) share
+one byte layout, so their fields are read for all of them at once: a strided view over the buffer when
+the payloads sit at a constant stride, else one fancy-index gather.
+
+Layouts (offsets in bytes from the payload start):
+
+- CDR (ROS 2): 4-byte encapsulation header (``00 01`` = little endian; anything else is left to the general
+  decoder), int32 sec, uint32 nanosec, uint32 frame_id length n (including the NUL), n chars; for
+  TransformStamped then padding to 4, uint32 child length, chars; then padding to 8 counted from after the
+  encapsulation header, then the float64s.
+- ROS 1: uint32 seq, uint32 secs, uint32 nsecs, uint32 frame_id length n, n chars (no NUL); for
+  TransformStamped uint32 child length and chars; then the float64s (no padding).
+
+Messages that fit no layout (big endian, short, odd) are reported back for the general decoder.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from tasks.ingest.mcap_stream import Batch
+
+IntArray = npt.NDArray[np.int64]
+F64Array = npt.NDArray[np.float64]
+
+N_FLOATS: dict[str, int] = {
+    "geometry_msgs/msg/PointStamped": 3,
+    "geometry_msgs/msg/PoseStamped": 7,
+    "geometry_msgs/msg/TransformStamped": 7,
+}
+"""Float64 count after the header(s) of each bulk-decodable type."""
+_TWO_STRINGS = {"geometry_msgs/msg/TransformStamped"}
+
+
+@dataclass(frozen=True)
+class BulkResult:
+    """Decoded rows of one batch: ``index`` into the batch, header stamps (ns), floats (n, k).
+
+    ``rest``: indices of messages the bulk path could not decode (for the general decoder).
+    """
+
+    index: IntArray
+    stamps_ns: IntArray
+    values: F64Array
+    rest: IntArray
+
+
+def _gather(arr: npt.NDArray[np.uint8], offsets: IntArray, nbytes: int) -> npt.NDArray[np.uint8]:
+    """(n, nbytes) bytes starting at each offset; a strided view when the offsets are evenly spaced."""
+    n = len(offsets)
+    if n == 0:
+        return np.zeros((0, nbytes), dtype=np.uint8)
+    if n > 1:
+        step = np.diff(offsets)
+        stride = int(step[0])
+        if stride >= nbytes and bool(np.all(step == stride)):
+            start = int(offsets[0])
+            view = np.lib.stride_tricks.as_strided(arr[start:], shape=(n, nbytes), strides=(stride, 1))
+            return np.ascontiguousarray(view)
+    out: npt.NDArray[np.uint8] = arr[offsets[:, None] + np.arange(nbytes)]
+    return out
+
+
+def _u32(arr: npt.NDArray[np.uint8], offsets: IntArray) -> IntArray:
+    return _gather(arr, offsets, 4).view("<u4").reshape(-1).astype(np.int64)
+
+
+def bulk_decode(batch: Batch, msgtype: str, encoding: str) -> BulkResult:
+    """Decode the messages of ``batch`` (type ``msgtype``, encoding ``cdr`` or ``ros1``) in bulk."""
+    nf = N_FLOATS[msgtype]
+    two = msgtype in _TWO_STRINGS
+    arr = np.frombuffer(batch.buf, dtype=np.uint8)
+    n = len(batch)
+    all_idx = np.arange(n, dtype=np.int64)
+    head = 16  # encapsulation + stamp + string length (CDR) or seq + stamp + string length (ROS 1)
+    fits = batch.lengths >= head
+    rest_parts: list[IntArray] = [all_idx[~fits]]
+    idx_parts: list[IntArray] = []
+    stamp_parts: list[IntArray] = []
+    value_parts: list[F64Array] = []
+    cand = all_idx[fits]
+    off = batch.offsets[cand]
+    heads = _gather(arr, off, head)
+    if encoding == "cdr":
+        ok = (heads[:, 0] == 0) & (heads[:, 1] == 1)
+        sec = heads[:, 4:8].copy().view("<i4").reshape(-1).astype(np.int64)
+    else:
+        ok = np.ones(len(cand), dtype=bool)
+        sec = heads[:, 4:8].copy().view("<u4").reshape(-1).astype(np.int64)
+    nsec = heads[:, 8:12].copy().view("<u4").reshape(-1).astype(np.int64)
+    slen = heads[:, 12:16].copy().view("<u4").reshape(-1).astype(np.int64)
+    rest_parts.append(cand[~ok])
+    keep = ok
+    cand, off, sec, nsec, slen = cand[keep], off[keep], sec[keep], nsec[keep], slen[keep]
+    lengths = batch.lengths[cand]
+    # group by (payload length, frame id length): each group shares one layout
+    key = lengths * (1 << 20) + np.minimum(slen, (1 << 20) - 1)
+    for k in np.unique(key).tolist():
+        sel = np.flatnonzero(key == k)
+        L = int(lengths[sel[0]])
+        s = int(slen[sel[0]])
+        g_idx, g_off = cand[sel], off[sel]
+        pos = 16 + s  # end of the frame id chars, from the payload start
+        if encoding == "cdr":
+            if two:
+                pos = 4 + ((pos - 4 + 3) // 4) * 4
+                if pos + 4 > L:
+                    rest_parts.append(g_idx)
+                    continue
+                c = _u32(arr, g_off + pos)
+                groups = [(int(cl), np.flatnonzero(c == cl)) for cl in np.unique(c).tolist()]
+            else:
+                groups = [(-1, np.arange(len(sel)))]
+        elif two:
+            if pos + 4 > L:
+                rest_parts.append(g_idx)
+                continue
+            c = _u32(arr, g_off + pos)
+            groups = [(int(cl), np.flatnonzero(c == cl)) for cl in np.unique(c).tolist()]
+        else:
+            groups = [(-1, np.arange(len(sel)))]
+        for child_len, sub in groups:
+            p = pos
+            if child_len >= 0:
+                p = pos + 4 + child_len
+            start = 4 + ((p - 4 + 7) // 8) * 8 if encoding == "cdr" else p
+            if start + 8 * nf > L:
+                rest_parts.append(g_idx[sub])
+                continue
+            vals = _gather(arr, g_off[sub] + start, 8 * nf).view("<f8").reshape(-1, nf)
+            idx_parts.append(g_idx[sub])
+            stamp_parts.append(sec[sel][sub] * 1_000_000_000 + nsec[sel][sub])
+            value_parts.append(vals.astype(np.float64))
+    if idx_parts:
+        index = np.concatenate(idx_parts)
+        stamps = np.concatenate(stamp_parts)
+        values = np.concatenate(value_parts)
+    else:
+        index = np.zeros(0, dtype=np.int64)
+        stamps = np.zeros(0, dtype=np.int64)
+        values = np.zeros((0, nf), dtype=np.float64)
+    rest = np.sort(np.concatenate(rest_parts)) if rest_parts else np.zeros(0, dtype=np.int64)
+    return BulkResult(index, stamps, values, rest.astype(np.int64))
