@@ -131,7 +131,12 @@ def _markers_table(chunks: list[MarkerChunk]) -> Any:
         xyz = np.concatenate(xyz_parts)
     else:
         idx, stamps, xyz = np.zeros(0, np.int32), np.zeros(0, np.int64), np.zeros((0, 3))
-    marker = pa.DictionaryArray.from_arrays(pa.array(idx), pa.array(names, pa.string())).cast(pa.string())
+    encoded = [nm.encode() for nm in names]
+    name_len = np.asarray([len(e) for e in encoded], dtype=np.int64)
+    offsets = np.zeros(len(idx) + 1, dtype=np.int64)
+    np.cumsum(name_len[idx] if len(idx) else np.zeros(0, np.int64), out=offsets[1:])
+    data = b"".join(e * len(p) for e, p in zip(encoded, idx_parts, strict=True))
+    marker = pa.LargeStringArray.from_buffers(len(idx), pa.py_buffer(offsets), pa.py_buffer(data)).cast(pa.string())
     cols = [marker, pa.array(stamps, pa.int64())] + [pa.array(np.ascontiguousarray(xyz[:, i])) for i in range(3)]
     return pa.Table.from_arrays(cols, schema=MARKERS_SCHEMA)
 
@@ -230,8 +235,9 @@ def ingest_recording(
     if model_info is not None:
         info["object_model_file"] = model_info
     with store.staging(f"ingest-{rec_id}") as stage:
-        pq.write_table(_markers_table(ex.markers), stage / MARKERS_FILE)
-        pq.write_table(_poses_table(ex.poses), stage / POSES_FILE)
+        # dictionary-encode only the name columns: trying it on float columns costs more than the rest
+        pq.write_table(_markers_table(ex.markers), stage / MARKERS_FILE, use_dictionary=["marker"])
+        pq.write_table(_poses_table(ex.poses), stage / POSES_FILE, use_dictionary=["frame", "role"])
         if ex.object_model is not None:
             import pyarrow as pa  # noqa: PLC0415
 

@@ -59,7 +59,11 @@ def _gather(arr: npt.NDArray[np.uint8], offsets: IntArray, nbytes: int) -> npt.N
     if n > 1:
         step = np.diff(offsets)
         stride = int(step[0])
-        if stride >= nbytes and bool(np.all(step == stride)):
+        if (
+            stride >= nbytes
+            and bool(np.all(step == stride))
+            and int(offsets[0]) + stride * (n - 1) + nbytes <= len(arr)
+        ):
             start = int(offsets[0])
             view = np.lib.stride_tricks.as_strided(arr[start:], shape=(n, nbytes), strides=(stride, 1))
             return np.ascontiguousarray(view)

@@ -184,19 +184,31 @@ class _Collector:
         log = _gather_uint(arr, rec_off + 15, 8).astype(np.int64)
         data_off = rec_off + _MSG_HEAD
         data_len = rec_len - _MSG.size
-        order = np.argsort(chan, kind="stable")
-        chan_sorted = chan[order]
-        bounds = np.flatnonzero(np.diff(chan_sorted)) + 1
-        for idx in np.split(order, bounds):
-            if len(idx) == 0:
-                continue
-            cid = int(chan[idx[0]])
-            self.content.batches.setdefault(cid, []).append(Batch(buf, data_off[idx], data_len[idx], log[idx]))
+        for cid in np.unique(chan).tolist():
+            idx = np.flatnonzero(chan == cid)
+            self.content.batches.setdefault(int(cid), []).append(Batch(buf, data_off[idx], data_len[idx], log[idx]))
+
+
+def _gather_bytes(arr: npt.NDArray[np.uint8], offsets: IntArray, nbytes: int) -> npt.NDArray[np.uint8]:
+    """(n, nbytes) bytes starting at each offset; a strided copy when the offsets are evenly spaced."""
+    n = len(offsets)
+    if n > 1:
+        step = np.diff(offsets)
+        stride = int(step[0])
+        if (
+            stride >= nbytes
+            and bool(np.all(step == stride))
+            and int(offsets[0]) + stride * (n - 1) + nbytes <= len(arr)
+        ):
+            view = np.lib.stride_tricks.as_strided(arr[int(offsets[0]) :], shape=(n, nbytes), strides=(stride, 1))
+            return np.ascontiguousarray(view)
+    out: npt.NDArray[np.uint8] = arr[offsets[:, None] + np.arange(nbytes)]
+    return out
 
 
 def _gather_uint(arr: npt.NDArray[np.uint8], offsets: IntArray, size: int) -> npt.NDArray[np.uint64]:
     """Little-endian unsigned integers of ``size`` bytes at ``offsets`` of a byte array."""
-    cols = arr[offsets[:, None] + np.arange(size)]
+    cols = _gather_bytes(arr, offsets, size)
     dtype = {2: "<u2", 4: "<u4", 8: "<u8"}[size]
     return np.ascontiguousarray(cols).view(dtype).reshape(-1).astype(np.uint64)
 
@@ -258,7 +270,9 @@ def _index_locations(buf: bytes, indexes: list[tuple[int, bytes]]) -> tuple[IntA
         parts.append(pairs[:, 1].astype(np.int64))
     if not parts:
         return None
-    off = np.sort(np.concatenate(parts))
+    off = np.concatenate(parts) if len(parts) > 1 else parts[0]
+    if len(off) > 1 and not bool(np.all(off[1:] > off[:-1])):
+        off = np.sort(off)
     size = len(buf)
     if len(off) == 0:
         return off, off
