@@ -1,0 +1,1 @@
+"""Learning a task descriptor from a recording: segment, fit, assemble the chain M with extents C."""

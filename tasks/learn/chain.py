@@ -1,0 +1,285 @@
+"""Segments to the manipulation chain M with extents C (DESCRIPTOR.md signs and extents).
+
+Per segment: each marker is still or moving (best model of its samples, ``tasks.fit.select``). The moving
+object markers, with the hand markers that stay rigid with them, are one rigid part and get one joint fit;
+a segment where only hand markers move is a reach or a release and is dropped, as are still and undefined
+segments. Adjacent primitives of the same kind about the same axis are merged and refitted. Angles and
+distances are measured from the still samples just before the motion to those just after it when there are
+any, so a change point placed a few samples inside a slow start or stop loses no extent.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from tasks.arrays import FloatArray, Points
+from tasks.fit.geometry import perpendicular_basis
+from tasks.fit.moments import span_residuals
+from tasks.fit.rotation import RotationFit, fit_rotation
+from tasks.fit.select import KINDS, Kind, SelectParams, choose_bic, choose_eigen, model_costs
+from tasks.fit.translation import TranslationFit, fit_translation
+from tasks.learn.params import LearnParams
+from tasks.learn.prepare import MIN_SAMPLES, PreparedRecording
+from tasks.segment.tracks import Track, span_indices
+
+
+@dataclass(frozen=True)
+class SegmentFit:
+    """One segment's model: kind, span (s), the markers of the moving part, fits and scores."""
+
+    kind: Kind
+    t_start: float
+    t_end: float
+    markers: tuple[str, ...] = ()
+    still_markers: frozenset[str] = frozenset()
+    rotation: RotationFit | None = None
+    translation: TranslationFit | None = None
+    scores: dict[str, float] = field(default_factory=dict)
+    eigenvalues: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    extent: float = 0.0
+    note: str = ""
+
+
+def _samples(track: Track, t0: float, t1: float) -> tuple[FloatArray, Points]:
+    i, j = span_indices(track, t0, t1)
+    return track.t_s[i:j], track.points[i:j]
+
+
+def _marker_kind(track: Track, t0: float, t1: float, undefined: float) -> Kind | None:
+    i, j = span_indices(track, t0, t1)
+    if j - i < MIN_SAMPLES:
+        return None
+    res = span_residuals(track.moments, np.array([i]), np.array([j]))
+    costs = model_costs(
+        res.n,
+        res.still,
+        res.line,
+        res.circle,
+        sigma_still=track.sigma_hf_m,
+        sigma_model=track.sigma_m,
+        undefined=undefined,
+    )
+    return KINDS[int(np.argmin(costs[0]))]
+
+
+def _rigid_with(track: Track, ref: Track, t0: float, t1: float, tol: float) -> bool:
+    t, p = _samples(track, t0, t1)
+    tr, pr = _samples(ref, t0, t1)
+    if len(t) < MIN_SAMPLES or len(tr) < 2:
+        return False
+    ref_at = np.column_stack([np.interp(t, tr, pr[:, i]) for i in range(3)])
+    return float(np.std(np.linalg.norm(p - ref_at, axis=1))) < tol
+
+
+def fit_span(
+    prep: PreparedRecording, t0: float, t1: float, params: LearnParams, force: Kind | None = None
+) -> SegmentFit:
+    """Classify and fit one time span [t0, t1) (seconds) of the prepared recording."""
+    kinds = {tr.name: _marker_kind(tr, t0, t1, params.undefined_nats) for tr in prep.tracks}
+    still = frozenset(n for n, k in kinds.items() if k == "still")
+    moving = [tr for tr in prep.tracks if kinds[tr.name] not in (None, "still")]
+    if force is not None:
+        moving = [tr for tr in prep.tracks if kinds[tr.name] is not None and tr.name not in still] or moving
+    if not moving:
+        return SegmentFit("still", t0, t1, still_markers=still, note="no marker moves")
+    objects = [tr for tr in moving if tr.name not in prep.hand]
+    all_hand = all(tr.name in prep.hand for tr in prep.tracks)
+    if objects:
+        group = objects + [
+            tr for tr in moving if tr.name in prep.hand and _rigid_with(tr, objects[0], t0, t1, params.rigid_tol_m)
+        ]
+    elif all_hand:
+        group = moving
+    else:
+        who = ", ".join(tr.name for tr in moving)
+        return SegmentFit("undefined", t0, t1, still_markers=still, note=f"only hand markers move ({who})")
+    group.sort(key=lambda tr: tr.name)
+    pts = [_samples(tr, t0, t1)[1] for tr in group]
+    names: tuple[str, ...] = tuple(tr.name for tr in group)
+    sel = SelectParams(params.undefined_nats, params.min_rotation_rad)
+
+    if params.classifier == "eigen":
+        primary = max(range(len(pts)), key=lambda i: float(np.ptp(pts[i], axis=0).max()))
+        single = [pts[primary]]
+        tf = fit_translation(single)
+        kind: Kind = force or choose_eigen(tf.eigenvalues, params.t0, 5.0 * params.sigma_floor_m)
+        rf = fit_rotation(single, 3.0 * params.sigma_floor_m, algebraic_only=True) if kind == "rotation" else None
+        return SegmentFit(kind, t0, t1, (names[primary],), still, rf, tf, {}, tf.eigenvalues, _extent(kind, rf, tf))
+
+    tf = fit_translation(pts)
+    sigma = float(np.sqrt(np.mean([tr.sigma_m**2 for tr in group])))
+    sigma_hf = float(np.sqrt(np.mean([tr.sigma_hf_m**2 for tr in group])))
+    rf = fit_rotation(pts, 3.0 * sigma)
+    n = np.array([float(tf.n)])
+    rss_still = np.array([sum(float(((p - p.mean(axis=0)) ** 2).sum()) for p in pts)])
+    costs = model_costs(
+        n,
+        rss_still,
+        np.array([tf.rss]),
+        np.array([rf.rss]),
+        sigma_still=sigma_hf,
+        sigma_model=sigma,
+        undefined=params.undefined_nats,
+    )[0]
+    kind = force or choose_bic(costs, rf.angle_rad, sel)
+    scores: dict[str, float] = {str(k): float(c) for k, c in zip(KINDS, costs, strict=True)}
+    return SegmentFit(kind, t0, t1, names, still, rf, tf, scores, tf.eigenvalues, _extent(kind, rf, tf))
+
+
+def _extent(kind: Kind, rf: RotationFit | None, tf: TranslationFit | None) -> float:
+    if kind == "rotation" and rf is not None:
+        return rf.angle_rad
+    if kind == "translation" and tf is not None:
+        return tf.distance_m
+    return 0.0
+
+
+def _sense_agrees(a: SegmentFit, b: SegmentFit) -> bool:
+    """Necessary for one motion of the same kind: the two axes point the same way (a door opened then closed
+    has opposite rotation directions)."""
+    if a.kind != b.kind:
+        return True  # a line-like arc next to a circle: only the union's fit can tell
+    if a.kind == "rotation" and a.rotation is not None and b.rotation is not None:
+        return float(np.dot(a.rotation.dir, b.rotation.dir)) > 0.0
+    if a.kind == "translation" and a.translation is not None and b.translation is not None:
+        return float(np.dot(a.translation.dir, b.translation.dir)) > 0.0
+    return False
+
+
+def _coordinate(f: SegmentFit, pts: Points) -> FloatArray:
+    """Angle (rad, unwrapped) or distance (m) of points along the fitted primitive ``f``."""
+    if f.kind == "rotation" and f.rotation is not None:
+        e1, e2 = perpendicular_basis(f.rotation.dir)
+        q = pts - f.rotation.pos
+        out: FloatArray = np.unwrap(np.arctan2(q @ e2, q @ e1))
+        return out
+    if f.translation is not None:
+        return pts @ f.translation.dir
+    return np.zeros(len(pts))
+
+
+def _union_is_one_motion(prep: PreparedRecording, union: SegmentFit, parts: list[SegmentFit], tol_m: float) -> bool:
+    """The union fits one model within ``tol_m`` rms and every part moves forward along it."""
+    fit = union.rotation if union.kind == "rotation" else union.translation
+    if fit is None or fit.rms_m > tol_m:
+        return False
+    by_name = {tr.name: tr for tr in prep.tracks}
+    for part in parts:
+        nets = [
+            float(np.median(c[-3:]) - np.median(c[:3]))
+            for name in union.markers
+            if len(c := _coordinate(union, _samples(by_name[name], part.t_start, part.t_end)[1])) >= MIN_SAMPLES
+        ]
+        if nets and float(np.median(nets)) <= 0.0:
+            return False
+    return True
+
+
+def merge_adjacent(prep: PreparedRecording, fits: list[SegmentFit], params: LearnParams) -> list[SegmentFit]:
+    """Merge consecutive primitives of one motion (only still segments between them; same sense; the union fits
+    one line or circle within ``merge_rms_m``) and refit the union. Real mechanisms are not ideal circles, so
+    the change-point search may cut one door swing into arcs of slightly different radius (Sturm's tracks)."""
+    out = list(fits)
+    changed = True
+    while changed:
+        changed = False
+        moving = [i for i, f in enumerate(out) if f.kind in ("rotation", "translation")]
+        for i, j in itertools.pairwise(moving):
+            if not all(out[k].kind == "still" for k in range(i + 1, j)) or not _sense_agrees(out[i], out[j]):
+                continue
+            union = fit_span(prep, out[i].t_start, out[j].t_end, params)
+            if union.kind in ("rotation", "translation") and _union_is_one_motion(
+                prep, union, [out[i], out[j]], params.merge_rms_m
+            ):
+                out[i : j + 1] = [replace(union, still_markers=out[i].still_markers)]
+                changed = True
+                break
+    return out
+
+
+def _rest_samples(track: Track, fits: list[SegmentFit], i: int, step: int) -> Points | None:
+    """Samples of ``track`` in the run of segments next to segment i (``step`` -1 before, +1 after) where it
+    is still: the rest position there, with the slow start or stop of the motion a small part of it."""
+    j = i + step
+    lo = hi = None
+    while 0 <= j < len(fits) and track.name in fits[j].still_markers:
+        lo = fits[j].t_start if lo is None or step < 0 else lo
+        hi = fits[j].t_end if hi is None or step > 0 else hi
+        j += step
+    if lo is None or hi is None:
+        return None
+    pts = _samples(track, lo, hi)[1]
+    return pts if len(pts) else None
+
+
+def refine_extents(prep: PreparedRecording, fits: list[SegmentFit]) -> list[SegmentFit]:
+    """Extents measured from the still samples around each primitive (when present) along its fitted axis."""
+    by_name = {tr.name: tr for tr in prep.tracks}
+    out = list(fits)
+    for i, f in enumerate(fits):
+        if f.kind not in ("rotation", "translation"):
+            continue
+        nets: list[float] = []
+        wts: list[float] = []
+        for name in f.markers:
+            tr = by_name[name]
+            before = _rest_samples(tr, fits, i, -1)
+            after = _rest_samples(tr, fits, i, +1)
+            _, seg = _samples(tr, f.t_start, f.t_end)
+            if len(seg) < MIN_SAMPLES:
+                continue
+            allp = np.concatenate([p for p in (before, seg, after) if p is not None])
+            if f.kind == "rotation" and f.rotation is not None:
+                e1, e2 = perpendicular_basis(f.rotation.dir)
+                q = allp - f.rotation.pos
+                coord = np.unwrap(np.arctan2(q @ e2, q @ e1))
+                weight = float(np.median(np.linalg.norm(q - np.outer(q @ f.rotation.dir, f.rotation.dir), axis=1)))
+            elif f.translation is not None:
+                coord = allp @ f.translation.dir
+                weight = 1.0
+            else:
+                continue
+            nb = len(before) if before is not None else 0
+            na = len(after) if after is not None else 0
+            head = coord[:nb] if nb else coord[:3]
+            tail = coord[len(coord) - na :] if na else coord[len(coord) - 3 :]
+            nets.append(float(np.median(tail) - np.median(head)))
+            wts.append(weight * len(seg))
+        if nets and sum(wts) > 0:
+            out[i] = replace(f, extent=abs(float(np.average(nets, weights=wts))))
+    return out
+
+
+def motion_m(f: SegmentFit) -> float:
+    """How far the part moved in a primitive: arc length at the largest marker radius, or distance (m)."""
+    if f.kind == "rotation" and f.rotation is not None:
+        return f.extent * max(f.rotation.radii, default=0.0)
+    return f.extent if f.kind == "translation" else 0.0
+
+
+def drop_small(fits: list[SegmentFit], min_motion_m: float) -> list[SegmentFit]:
+    """Primitives that move the part less than ``min_motion_m`` become undefined (wiggles before a grasp)."""
+    return [
+        replace(f, kind="undefined", note=f"moves {motion_m(f) * 1000:.1f} mm < {min_motion_m * 1000:.1f} mm")
+        if f.kind in ("rotation", "translation") and motion_m(f) < min_motion_m
+        else f
+        for f in fits
+    ]
+
+
+def primitive_fit_json(f: SegmentFit) -> dict[str, Any]:
+    """The ``fit`` block of a primitive: residual, eigenvalues, model scores, axis uncertainty."""
+    out: dict[str, Any] = {"eigenvalues": list(f.eigenvalues), "scores": f.scores}
+    if f.kind == "rotation" and f.rotation is not None:
+        rf = f.rotation
+        out.update(rms_m=rf.rms_m, radii_m=list(rf.radii), n=rf.n)
+        if np.isfinite(rf.dir_std_rad):
+            out.update(dir_std_rad=rf.dir_std_rad, pos_std_m=rf.pos_std_m)
+    elif f.translation is not None:
+        tf = f.translation
+        out.update(rms_m=tf.rms_m, n=tf.n, dir_std_rad=tf.dir_std_rad)
+    return out

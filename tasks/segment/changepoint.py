@@ -1,0 +1,140 @@
+"""Model-based change-point search (the default segmenter).
+
+The cost of a time span is, summed over markers, the cost of the best still / line / circle / undefined
+model of that marker's samples in the span (``tasks.fit.select.model_costs``, O(1) per span from prefix
+moments), plus a penalty ``beta`` per segment. PELT (Killick et al. 2012) searches change points on a time
+grid of ``grid_s`` cells with a minimum segment length; each change point is then refined at the full
+sample rate between its neighbours. Every marker shares the change points: a switch in one marker is a
+candidate for all. Segments are contiguous in time and their number is found by the search.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from tasks.arrays import FloatArray
+from tasks.fit.moments import span_residuals
+from tasks.fit.select import model_costs
+from tasks.segment.tracks import Track
+
+IntArray = np.ndarray
+
+
+@dataclass(frozen=True)
+class ChangepointParams:
+    """Search settings: grid cell (s), minimum segment (s), penalty per segment (nats, None = 3 log N per
+    marker), per-sample cost of the undefined model (nats), largest number of grid cells."""
+
+    grid_s: float = 0.05
+    min_segment_s: float = 0.3
+    penalty: float | None = None
+    undefined_nats: float = 9.0
+    max_cells: int = 4000
+
+
+@dataclass(frozen=True)
+class Segmentation:
+    """Segment boundaries in seconds since recording start: segment i is [bounds[i], bounds[i+1])."""
+
+    bounds_s: tuple[float, ...]
+    cost: float
+
+    @property
+    def spans(self) -> list[tuple[float, float]]:
+        """(start, end) seconds of each segment."""
+        return list(zip(self.bounds_s[:-1], self.bounds_s[1:], strict=True))
+
+
+def _marker_cost(track: Track, start: IntArray, stop: IntArray, undefined: float) -> FloatArray:
+    """(b,) cost in nats of the best model of ``track`` over sample spans [start, stop); 0 for < 4 samples."""
+    res = span_residuals(track.moments, start, stop)
+    costs = model_costs(
+        res.n,
+        res.still,
+        res.line,
+        res.circle,
+        sigma_still=track.sigma_hf_m,
+        sigma_model=track.sigma_m,
+        undefined=undefined,
+    )
+    best: FloatArray = costs.min(axis=1)
+    return np.where(res.n >= 4, best, 0.0)
+
+
+def spans_cost(tracks: list[Track], t_from: FloatArray, t_to: FloatArray, undefined: float) -> FloatArray:
+    """(b,) summed best-model cost (nats) of the time spans [t_from, t_to) over every marker."""
+    total = np.zeros(len(t_from))
+    for tr in tracks:
+        a = np.searchsorted(tr.t_s, t_from, side="left")
+        b = np.searchsorted(tr.t_s, t_to, side="left")
+        total += _marker_cost(tr, a, b, undefined)
+    return total
+
+
+def search(tracks: list[Track], params: ChangepointParams) -> Segmentation:
+    """PELT over the grid, then full-rate refinement of every change point (tracks must be non-empty)."""
+    t_lo = min(float(tr.t_s[0]) for tr in tracks)
+    t_hi = max(float(tr.t_s[-1]) for tr in tracks) + 1e-9
+    duration = t_hi - t_lo
+    cell = max(params.grid_s, duration / params.max_cells)
+    n_cells = max(1, math.ceil(duration / cell))
+    grid = t_lo + cell * np.arange(n_cells + 1, dtype=np.float64)
+    grid[-1] = t_hi
+    min_cells = max(1, math.ceil(params.min_segment_s / cell))
+    n_samples = max(len(tr.t_s) for tr in tracks)
+    beta = params.penalty if params.penalty is not None else 3.0 * len(tracks) * math.log(max(n_samples, 2))
+    margin = 4.0 * len(tracks) * math.log(max(n_samples, 2))
+    idx = [np.searchsorted(tr.t_s, grid, side="left") for tr in tracks]
+
+    def cost(cands: IntArray, end: int) -> FloatArray:
+        total = np.zeros(len(cands))
+        for tr, ix in zip(tracks, idx, strict=True):
+            total += _marker_cost(tr, ix[cands], np.full(len(cands), ix[end]), params.undefined_nats)
+        return total
+
+    best = np.full(n_cells + 1, np.inf)
+    best[0] = -beta
+    prev = np.zeros(n_cells + 1, dtype=np.int64)
+    cands = np.zeros(0, dtype=np.int64)
+    for end in range(min_cells, n_cells + 1):
+        new = end - min_cells
+        if np.isfinite(best[new]):
+            cands = np.append(cands, new)
+        if len(cands) == 0:
+            continue
+        c = cost(cands, end)
+        vals = best[cands] + c + beta
+        k = int(np.argmin(vals))
+        best[end] = vals[k]
+        prev[end] = cands[k]
+        cands = cands[best[cands] + c <= best[end] + margin]
+    if not np.isfinite(best[n_cells]):
+        return Segmentation((float(grid[0]), float(grid[-1])), float("nan"))
+    cuts = [n_cells]
+    while cuts[-1] > 0:
+        cuts.append(int(prev[cuts[-1]]))
+    cuts.reverse()
+    bounds = [float(grid[c]) for c in cuts]
+    bounds = _refine(tracks, bounds, cell, params)
+    return Segmentation(tuple(bounds), float(best[n_cells]))
+
+
+def _refine(tracks: list[Track], bounds: list[float], cell: float, params: ChangepointParams) -> list[float]:
+    """Move each inner boundary to the sample time within one grid cell that minimises its two segments' cost."""
+    out = list(bounds)
+    stamps = np.unique(np.concatenate([tr.t_s for tr in tracks]))
+    for i in range(1, len(out) - 1):
+        lo = max(out[i] - cell, out[i - 1] + params.min_segment_s * 0.5)
+        hi = min(out[i] + cell, out[i + 1] - params.min_segment_s * 0.5)
+        cand = stamps[(stamps > lo) & (stamps < hi)]
+        if len(cand) == 0:
+            continue
+        if len(cand) > 400:
+            cand = cand[np.linspace(0, len(cand) - 1, 400).round().astype(np.int64)]
+        left = spans_cost(tracks, np.full(len(cand), out[i - 1]), cand, params.undefined_nats)
+        right = spans_cost(tracks, cand, np.full(len(cand), out[i + 1]), params.undefined_nats)
+        out[i] = float(cand[int(np.argmin(left + right))])
+    return out
