@@ -134,10 +134,15 @@ def _simulation_html(entry: EntryResult, folder: Path, stem: str) -> str:
     sim = entry.simulation
     if sim is None:
         return "<h3>simulation</h3><p>not simulated</p>"
+    if sim.skipped is not None:
+        return f"<h3>simulation</h3><p>not simulated: {html.escape(sim.skipped)}</p>"
     verdict = "<b class=new>success</b>" if sim.success else "<b class=failed>failed</b>"
     out = [f"<h3>simulation in scene {html.escape(sim.scene)}: {verdict}</h3>"]
     if sim.detail:
         out.append(f"<p>{html.escape(sim.detail)}</p>")
+    if sim.target:
+        fig = plots.simulation_extent_figure(sim.joints, sim.achieved, sim.target)
+        out.append(f"<img src='{_save(fig, folder / f'{stem}-simulation.png')}'>")
     if sim.trace_path and Path(sim.trace_path).is_file():
         with np.load(sim.trace_path, allow_pickle=False) as npz:
             times = np.asarray(npz["times_s"], dtype=np.float64)
@@ -146,9 +151,8 @@ def _simulation_html(entry: EntryResult, folder: Path, stem: str) -> str:
             names = [str(n) for n in npz["names"]]
             units = [str(u) for u in npz["units"]] if "units" in npz else ["rad"] * len(names)
         traces = [plots.JointTrace(n, times, values[i], float(targets[i]), units[i]) for i, n in enumerate(names)]
-        img = _save(plots.joint_motion_figure(traces, "simulated joint motion vs demonstrated extent"),
-                    folder / f"{stem}-simulation.png")  # fmt: skip
-        out.append(f"<img src='{img}'>")
+        fig = plots.joint_motion_figure(traces, "simulated joint motion over time vs demonstrated extent")
+        out.append(f"<img src='{_save(fig, folder / f'{stem}-joint-trace.png')}'>")
     return "\n".join(out)
 
 
@@ -248,6 +252,6 @@ def write_report(store: Store, run_id: str, title: str, entries: Sequence[EntryR
 
 def _sim_text(entry: EntryResult) -> str:
     sim = entry.simulation
-    if sim is None:
+    if sim is None or sim.skipped is not None:
         return "-"
     return "<b class=new>success</b>" if sim.success else "<b class=failed>failed</b>"

@@ -14,6 +14,8 @@ def _sim_cell(entry: EntryResult) -> str:
     sim = entry.simulation
     if sim is None:
         return "-"
+    if sim.skipped is not None:
+        return "not simulated"
     pairs = ", ".join(f"{a:.3f}/{t:.3f}" for a, t in zip(sim.achieved, sim.target, strict=False))
     return f"{'success' if sim.success else 'FAILED'} ({pairs})" if pairs else ("success" if sim.success else "FAILED")
 

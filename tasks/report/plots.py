@@ -247,3 +247,18 @@ def diff_figure(changes: Sequence[tuple[str, float, float]]) -> Figure:
     ax.legend(fontsize=8)
     fig.tight_layout()
     return fig
+
+
+def simulation_extent_figure(joints: Sequence[str], achieved: Sequence[float], target: Sequence[float]) -> Figure:
+    """Simulated joint motion against the demonstrated target, one pair of bars per executed primitive."""
+    fig, ax = plt.subplots(figsize=(7.0, 2.8))
+    xs = np.arange(len(target))
+    ax.bar(xs - 0.2, target, width=0.4, color="0.7", label="demonstrated extent (target)")
+    ax.bar(xs + 0.2, achieved, width=0.4, color="tab:green", label="achieved in simulation")
+    labels = [f"{i}: {joints[i]}" if i < len(joints) else str(i) for i in range(len(target))]
+    ax.set_xticks(xs, labels)
+    ax.set_ylabel("joint motion (rad or m)")
+    ax.set_title("simulated joint motion vs target")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig

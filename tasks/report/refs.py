@@ -52,9 +52,9 @@ class DescriptorRef:
 
 @dataclass(frozen=True)
 class SimulationRef:
-    """Outcome of executing a descriptor in simulation; the joint traces live in the npz at ``trace_path``.
+    """Outcome of executing a descriptor in simulation; joint traces, when recorded, in the npz at ``trace_path``.
 
-    ``achieved`` and ``target`` hold one value per executed primitive (rad or m).
+    ``achieved`` and ``target`` hold one value per executed primitive (rad or m), ``joints`` the joint names.
     """
 
     descriptor_id: str
@@ -62,8 +62,11 @@ class SimulationRef:
     success: bool
     achieved: tuple[float, ...]
     target: tuple[float, ...]
+    joints: tuple[str, ...] = ()
     trace_path: str | None = None
     detail: str = ""
+    skipped: str | None = None
+    """Why the descriptor was not executed (no built-in scene for its object), None when it was."""
 
 
 @dataclass(frozen=True)

@@ -38,7 +38,7 @@ def _entry(store: Store, tmp_path: Path, extent: float) -> EntryResult:
     times = np.linspace(0.0, 2.0, 50)
     np.savez(trace, times_s=times, values=(extent * times / 2)[None, :], targets=np.array([extent]),
              names=np.array(["hinge"]), units=np.array(["rad"]))  # fmt: skip
-    sim = SimulationRef(put.id, "door", True, (extent,), (extent,), str(trace), "reached the demonstrated extent")
+    sim = SimulationRef(put.id, "door", True, (extent,), (extent,), ("hinge",), str(trace), "reached the extent")
     return EntryResult(
         source=str(source),
         recording=RecordingRef(ing.recording_id, str(source)),
@@ -59,7 +59,7 @@ def test_report_has_every_plot_and_the_axes_mcap(store: Store, tmp_path: Path) -
     assert paths.html == store.reports_dir / "run-1" / "report.html"
     page = paths.html.read_text()
     for stem in ("open-door-v1", "open-door-v2"):
-        for kind in ("trajectories", "timeline", "models", "grasp", "simulation"):
+        for kind in ("trajectories", "timeline", "models", "grasp", "simulation", "joint-trace"):
             png = paths.folder / f"{stem}-{kind}.png"
             assert png.read_bytes()[:8] == PNG_MAGIC
             assert f"src='{png.name}'" in page
