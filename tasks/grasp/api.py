@@ -1,47 +1,140 @@
 """Grasp planning entry points used by the learn stage (``G`` of the descriptor, DESCRIPTOR.md).
 
-The wrist seed is the demonstrator's wrist pose (world frame, metres, quaternion [x, y, z, w]); the planner
-searches Barrett eigengrasp amplitudes and a wrist pose near it (Dang & Allen, GraspIt! online planner).
+The demonstrator's wrist tracker pose (world frame, metres, quaternion [x, y, z, w]) is turned into a seed palm
+pose through the sensor-to-palm offset; the planner (``planner.py``) searches Barrett eigengrasp amplitudes and
+a palm pose near it and returns the force-closure grasp closest to the seed. ``Grasp.wrist_*`` is the pose of
+the hand base (palm) frame of ``barrett.py`` in the world, +z the approach direction; ``Grasp.eigengrasps`` is
+the pre-grasp posture (a1, a2): execute by placing the hand there and closing the fingers until contact
+(``closing.close_fingers``). ``quality`` holds epsilon, volume, force_closure, the contact count and the closed
+DOFs ``closed_dofs`` [spread, f1, f2, f3] (radians) found in planning.
 """
 
 from __future__ import annotations
 
-from typing import Protocol
+import math
+from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
+from scipy.spatial.transform import Rotation, Slerp
 
 from schemas.descriptor import Grasp
-from tasks.arrays import Points, Quats, StampsNs, Vector3
+from tasks.arrays import FloatArray, Points, Vector3
 from tasks.errors import GraspError
+from tasks.grasp.object_model import ObjectModel, build_object_model, check_object_points, crop_points
+from tasks.grasp.planner import GraspCandidate, PlannerParams, rank_tier, search
+from tasks.recording.load import PoseTrack
+
+HAND = "barrett"
+CROP_RADIUS_M = 0.15
+"""Object points farther than this from the part nearest the seed palm are left out (the part to grasp)."""
+ROUNDS = 2
+"""Annealing rounds tried before giving up on force closure."""
 
 
-class WristTrack(Protocol):
-    """What the planner reads from a ``PoseTrack`` (tasks.recording.load): stamps (ns), positions (m), quats."""
+@dataclass(frozen=True)
+class PalmOffset:
+    """Sensor-to-palm transform: palm = sensor · Trans(translation_m) · R, R = Rz(yaw) then Ry(pitch) (intrinsic)."""
 
-    @property
-    def stamps_ns(self) -> StampsNs:
-        """(n,) int64 time stamps, nanoseconds."""
+    translation_m: tuple[float, float, float] = (0.0, -0.060, -0.035)
+    yaw_rad: float = math.radians(90.0)
+    pitch_rad: float = math.radians(30.0)
 
-    @property
-    def positions(self) -> Points:
-        """(n, 3) float64 positions, metres, world frame."""
-
-    @property
-    def quats(self) -> Quats:
-        """(n, 4) float64 orientations [x, y, z, w], world frame."""
+    def rotation(self) -> Rotation:
+        """The offset's rotation (sensor frame to palm frame)."""
+        return Rotation.from_euler("ZY", [self.yaw_rad, self.pitch_rad])
 
 
-def plan_grasp_for_recording(
-    object_points: Points | None,
-    wrist: WristTrack | None,
-    t_seed_s: float | None,
-    start_ns: int,
+GRASPIT_TRACKER_OFFSET = PalmOffset()
+"""GraspIt!'s Barrett model: tracker at (0, -60, -35) mm, then 90° about z and 30° about y."""
+
+
+def palm_from_sensor(
+    position: Vector3, quat_xyzw: FloatArray, offset: PalmOffset = GRASPIT_TRACKER_OFFSET
+) -> tuple[Vector3, FloatArray]:
+    """Palm pose (position (3,) m, quaternion [x, y, z, w]) in the world for a tracker pose in the world."""
+    sensor = Rotation.from_quat(quat_xyzw)
+    palm_pos = np.asarray(position, dtype=np.float64) + sensor.apply(np.array(offset.translation_m))
+    return palm_pos, (sensor * offset.rotation()).as_quat()
+
+
+def wrist_pose_at(track: PoseTrack, stamp_ns: int) -> tuple[Vector3, FloatArray]:
+    """Tracker pose at ``stamp_ns`` (positions linear, orientations slerped; clamped to the track's span)."""
+    ok = np.all(np.isfinite(track.positions), axis=1) & np.all(np.isfinite(track.quats), axis=1)
+    stamps = np.asarray(track.stamps_ns)[ok]
+    if len(stamps) == 0:
+        msg = f"wrist track {track.frame}: no finite samples"
+        raise GraspError(msg)
+    positions = np.asarray(track.positions, dtype=np.float64)[ok]
+    quats = np.asarray(track.quats, dtype=np.float64)[ok]
+    t = float(np.clip(stamp_ns, stamps[0], stamps[-1]) - stamps[0]) * 1e-9
+    times = (stamps - stamps[0]).astype(np.float64) * 1e-9
+    if len(stamps) == 1 or not np.all(np.diff(times) > 0):
+        i = int(np.argmin(np.abs(times - t)))
+        return positions[i], quats[i] / np.linalg.norm(quats[i])
+    pos = np.array([np.interp(t, times, positions[:, k]) for k in range(3)])
+    return pos, Slerp(times, Rotation.from_quat(quats))(t).as_quat()
+
+
+def _check_seed(seed_position: object, seed_quat_xyzw: object) -> tuple[Vector3, FloatArray]:
+    pos = np.asarray(seed_position, dtype=np.float64)
+    quat = np.asarray(seed_quat_xyzw, dtype=np.float64)
+    if pos.shape != (3,) or quat.shape != (4,):
+        msg = f"seed pose: expected position (3,) and quaternion (4,), got {pos.shape} and {quat.shape}"
+        raise GraspError(msg)
+    if not (np.all(np.isfinite(pos)) and np.all(np.isfinite(quat))):
+        msg = f"seed pose is not finite: position {pos.tolist()}, quaternion {quat.tolist()}"
+        raise GraspError(msg)
+    norm = float(np.linalg.norm(quat))
+    if norm < 1e-6:
+        msg = f"seed quaternion has zero length: {quat.tolist()}"
+        raise GraspError(msg)
+    return pos, quat / norm
+
+
+def grasp_from_candidate(candidate: GraspCandidate) -> Grasp:
+    """The descriptor's ``Grasp`` for a planned candidate (pre-grasp amplitudes, palm pose, qualities)."""
+    q = candidate.quality
+    return Grasp(
+        hand=HAND,
+        eigengrasps=(float(candidate.state[0]), float(candidate.state[1])),
+        wrist_position=(float(candidate.position[0]), float(candidate.position[1]), float(candidate.position[2])),
+        wrist_orientation=(
+            float(candidate.quat_xyzw[0]),
+            float(candidate.quat_xyzw[1]),
+            float(candidate.quat_xyzw[2]),
+            float(candidate.quat_xyzw[3]),
+        ),
+        quality={
+            "epsilon": q.epsilon,
+            "volume": q.volume,
+            "force_closure": q.force_closure,
+            "contacts": q.contacts,
+            "closed_dofs": [float(candidate.closed[0]), *(float(v) for v in candidate.closed[1:4])],
+        },
+    )
+
+
+def plan_on_model(
+    model: ObjectModel,
+    seed_position: Vector3,
+    seed_quat_xyzw: FloatArray,
     rng: np.random.Generator,
-) -> Grasp | None:
-    """Plan a Barrett grasp for a recording: None without an object model (stub: always None for now)."""
-    del object_points, wrist, t_seed_s, start_ns, rng
-    return None
+    params: PlannerParams | None = None,
+) -> GraspCandidate:
+    """Best candidate on a built model from a palm seed: force closure closest to the seed, else best epsilon."""
+    pos, quat = _check_seed(seed_position, seed_quat_xyzw)
+    seed_rot = Rotation.from_quat(quat).as_matrix()
+    tried: list[GraspCandidate] = []
+    for _ in range(ROUNDS):
+        found = search(model, seed_rot, pos, rng, params)
+        tried += found
+        if found and rank_tier(found[0].quality) == 0:
+            return found[0]
+    if not tried:
+        msg = "no collision-free grasp found near the seed pose"
+        raise GraspError(msg)
+    return min(tried, key=lambda c: (rank_tier(c.quality), c.closeness))
 
 
 def plan_grasp(
@@ -49,8 +142,52 @@ def plan_grasp(
     seed_position: Vector3,
     seed_quat_xyzw: npt.NDArray[np.float64],
     rng: np.random.Generator,
+    *,
+    params: PlannerParams | None = None,
 ) -> Grasp:
-    """Plan a force-closure Barrett grasp on ``object_points`` (world, metres) near the seed wrist pose."""
-    del object_points, seed_position, seed_quat_xyzw, rng
-    msg = "not implemented yet"
-    raise GraspError(msg)
+    """Plan a Barrett grasp on ``object_points`` (n, 3) (world, metres) near a seed **palm** pose (the hand base
+    frame, world; +z approach). ``quality["force_closure"]`` is false only when no force-closure grasp was found."""
+    _check_seed(seed_position, seed_quat_xyzw)
+    model = build_object_model(object_points, rng)
+    return grasp_from_candidate(plan_on_model(model, seed_position, seed_quat_xyzw, rng, params))
+
+
+def part_near(points: Points, palm_position: Vector3, radius_m: float = CROP_RADIUS_M) -> Points:
+    """The object points within ``radius_m`` of the point nearest the palm (the part the hand reaches for)."""
+    nearest = points[int(np.argmin(np.linalg.norm(points - palm_position, axis=1)))]
+    part = crop_points(points, nearest, radius_m)
+    return part if len(part) >= 30 else points
+
+
+def plan_grasp_for_recording(
+    object_points: Points | None,
+    wrist: PoseTrack | None,
+    t_seed_s: float | None,
+    start_ns: int,
+    rng: np.random.Generator,
+    *,
+    offset: PalmOffset = GRASPIT_TRACKER_OFFSET,
+    params: PlannerParams | None = None,
+) -> Grasp | None:
+    """Plan the grasp of a recording: None without an object model. The seed is the wrist tracker pose at
+    ``start_ns + t_seed_s`` (the track's first sample when None) through ``offset``; without a wrist track the
+    seed looks down at the object's top from 10 cm above it. Only the part near the seed is grasped."""
+    if object_points is None:
+        return None
+    points = check_object_points(object_points)
+    if wrist is not None:
+        if t_seed_s is not None and not math.isfinite(t_seed_s):
+            msg = f"seed time is not finite: {t_seed_s}"
+            raise GraspError(msg)
+        if t_seed_s is not None:
+            stamp = start_ns + round(t_seed_s * 1e9)
+        else:
+            stamp = int(wrist.stamps_ns[0]) if len(wrist.stamps_ns) else start_ns
+        sensor_pos, sensor_quat = wrist_pose_at(wrist, stamp)
+        palm_pos, palm_quat = palm_from_sensor(sensor_pos, sensor_quat, offset)
+    else:
+        top = points[np.argmax(points[:, 2])]
+        palm_pos = np.array([points[:, 0].mean(), points[:, 1].mean(), top[2] + 0.10])
+        palm_quat = Rotation.from_euler("x", math.pi).as_quat()
+    part = part_near(points, palm_pos)
+    return plan_grasp(part, palm_pos, palm_quat, rng, params=params)

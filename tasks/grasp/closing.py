@@ -1,0 +1,170 @@
+"""Kinematic approach and finger closing in pybullet (GraspIt!'s approachToContact and autoGrasp).
+
+The hand is moved and its joints are reset (no dynamics); contact means a pybullet closest distance below
+``CONTACT_M``. Fingers close one at a time in small steps with bisection to the first contact; when the proximal
+link stops first, the distal link keeps closing alone (the BH8's breakaway), otherwise it stays coupled.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+import pybullet as pb
+
+from tasks.arrays import FloatArray, Points
+from tasks.grasp import barrett
+
+CONTACT_M = 0.001
+"""A link touches the object when its closest distance is below 1 mm."""
+PENETRATION_M = -0.002
+"""A pose is illegal when any link is more than 2 mm inside the object."""
+CLOSE_STEP_RAD = 0.06
+BISECT_ITERS = 5
+
+
+@dataclass(frozen=True)
+class Contacts:
+    """Contacts of a closed hand: ``positions`` (m, 3) on the object, world metres; ``normals_in`` (m, 3)
+    unit, into the object; ``links`` (m,) hand link index (-1 = palm)."""
+
+    positions: Points
+    normals_in: Points
+    links: npt.NDArray[np.int64]
+
+
+def set_pose(client_id: int, hand: int, position: npt.ArrayLike, quat_xyzw: npt.ArrayLike) -> None:
+    """Place the hand's palm frame at a world pose (metres, [x, y, z, w])."""
+    pos = [float(v) for v in np.asarray(position, dtype=np.float64)]
+    quat = [float(v) for v in np.asarray(quat_xyzw, dtype=np.float64)]
+    pb.resetBasePositionAndOrientation(hand, pos, quat, physicsClientId=client_id)
+
+
+def min_distance(client_id: int, hand: int, obj: int, link: int | None = None, within: float = 0.05) -> float:
+    """Smallest signed distance (m) between the hand (or one of its links) and the object, capped at ``within``."""
+    kwargs = {} if link is None else {"linkIndexA": link}
+    pts = pb.getClosestPoints(hand, obj, within, physicsClientId=client_id, **kwargs)
+    if not pts:
+        return within
+    return float(min(p[8] for p in pts))
+
+
+def approach_to_contact(  # noqa: PLR0917 -- pybullet ids then the pose, as in pybullet's own API
+    client_id: int, hand: int, obj: int, position: FloatArray, quat_xyzw: FloatArray, max_m: float = 0.03
+) -> FloatArray:
+    """Move the palm along its approach axis (+z) until the hand touches the object or ``max_m``; new position."""
+    rot = np.array(pb.getMatrixFromQuaternion([float(v) for v in quat_xyzw])).reshape(3, 3)
+    approach = rot[:, 2]
+    step = 0.002
+    moved = 0.0
+    pos = np.asarray(position, dtype=np.float64).copy()
+    while moved < max_m - 1e-9:
+        trial = pos + step * approach
+        set_pose(client_id, hand, trial, quat_xyzw)
+        if min_distance(client_id, hand, obj) < CONTACT_M:
+            break
+        pos = trial
+        moved += step
+    set_pose(client_id, hand, pos, quat_xyzw)
+    return pos
+
+
+def _finger_touches(client_id: int, hand: int, obj: int, links: tuple[int, ...]) -> bool:
+    return any(min_distance(client_id, hand, obj, link, within=0.01) < CONTACT_M for link in links)
+
+
+def _set_finger(client_id: int, hand: int, finger: int, proximal: float, distal: float) -> None:
+    pb.resetJointState(hand, barrett.PROXIMAL_JOINTS[finger], proximal, 0.0, physicsClientId=client_id)
+    pb.resetJointState(hand, barrett.DISTAL_JOINTS[finger], distal, 0.0, physicsClientId=client_id)
+
+
+def _close_joint(  # noqa: PLR0917 -- private helper
+    client_id: int,
+    hand: int,
+    obj: int,
+    start: float,
+    stop: float,
+    set_angle: Callable[[float], None],
+    links: tuple[int, ...],
+) -> tuple[float, bool]:
+    """Increase one angle from ``start`` to ``stop`` until ``links`` touch; returns (angle, touched)."""
+    prev = start
+    angle = start
+    while angle < stop - 1e-9:
+        angle = min(angle + CLOSE_STEP_RAD, stop)
+        set_angle(angle)
+        if _finger_touches(client_id, hand, obj, links):
+            lo, hi = prev, angle
+            for _ in range(BISECT_ITERS):
+                mid = 0.5 * (lo + hi)
+                set_angle(mid)
+                if _finger_touches(client_id, hand, obj, links):
+                    hi = mid
+                else:
+                    lo = mid
+            set_angle(lo)
+            return lo, True
+        prev = angle
+    return angle, False
+
+
+def close_fingers(client_id: int, hand: int, obj: int, dofs: npt.ArrayLike, breakaway: bool = True) -> FloatArray:
+    """Close each finger from (4,) ``dofs`` until contact; returns (7,) [spread, prox1..3, dist1..3] radians."""
+    d = barrett.clamp_dofs(dofs)
+    barrett.apply_dofs(client_id, hand, d)
+    prox_out = d[1:].copy()
+    dist_out = barrett.coupled_distal(d[1:])
+    for finger in range(3):
+        plink, dlink = barrett.FINGER_LINKS[finger]
+
+        def set_coupled(angle: float, finger: int = finger) -> None:
+            _set_finger(client_id, hand, finger, angle, float(barrett.coupled_distal(angle)))
+
+        angle, _ = _close_joint(
+            client_id,
+            hand,
+            obj,
+            float(d[finger + 1]),
+            float(barrett.DOF_UPPER[finger + 1]),
+            set_coupled,
+            (plink, dlink),
+        )
+        prox_out[finger] = angle
+        dist_out[finger] = float(barrett.coupled_distal(angle))
+        proximal_touch = _finger_touches(client_id, hand, obj, (plink,))
+        distal_touch = _finger_touches(client_id, hand, obj, (dlink,))
+        if breakaway and proximal_touch and not distal_touch:
+
+            def set_distal(value: float, finger: int = finger, prox: float = angle) -> None:
+                _set_finger(client_id, hand, finger, prox, value)
+
+            dist_out[finger], _ = _close_joint(
+                client_id, hand, obj, float(dist_out[finger]), barrett.DISTAL_UPPER, set_distal, (dlink,)
+            )
+    return np.concatenate([[d[0]], prox_out, dist_out])
+
+
+def contacts_of(client_id: int, hand: int, obj: int, within: float = 0.002, merge_m: float = 0.003) -> Contacts:
+    """Contacts between the hand and the object closer than ``within`` metres, merged within ``merge_m``."""
+    pts = pb.getClosestPoints(hand, obj, within, physicsClientId=client_id)
+    positions: list[FloatArray] = []
+    normals: list[FloatArray] = []
+    links: list[int] = []
+    for p in pts:
+        pos = np.array(p[6], dtype=np.float64)
+        normal_to_hand = np.array(p[7], dtype=np.float64)  # normal on B (object) pointing towards A (hand)
+        norm = float(np.linalg.norm(normal_to_hand))
+        if norm < 1e-9:
+            continue
+        if any(
+            float(np.linalg.norm(pos - q)) < merge_m and link == p[3] for q, link in zip(positions, links, strict=True)
+        ):
+            continue
+        positions.append(pos)
+        normals.append(-normal_to_hand / norm)
+        links.append(int(p[3]))
+    if not positions:
+        return Contacts(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, dtype=np.int64))
+    return Contacts(np.array(positions), np.array(normals), np.array(links, dtype=np.int64))
