@@ -166,7 +166,7 @@ def read_bag(data: bytes, path: str) -> BagContent:
     start = len(b"#ROSBAG V2.0\n")
     try:
         stop = _walk(data, start, len(data), content, top=True)
-    except (_BadRecordError, KeyError, struct.error) as err:
+    except (_BadRecordError, KeyError, ValueError, struct.error) as err:
         what = str(err) if isinstance(err, _BadRecordError) else f"malformed record ({type(err).__name__}: {err})"
         raise RecordingError(path, f"corrupt bag: {what}") from err
     if stop != len(data):

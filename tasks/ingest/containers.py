@@ -145,13 +145,15 @@ def _read_mcap_file(path: Path, recover: bool) -> RawRecording:
     rec = RawRecording(path, "mcap", topics)
     if content.damage is not None:
         kept = rec.message_count
-        per_msg = (content.damage_offset or len(data)) / max(kept, 1)
-        lost = content.lost_messages or max(1, round(content.lost_bytes / per_msg)) if content.lost_bytes else 0
-        rec.lost_messages = int(lost)
-        rec.warnings.append(
-            f"{path}: {content.damage}; recovered {kept} messages before byte {content.damage_offset}, "
-            f"lost the last {content.lost_bytes} bytes (about {rec.lost_messages} messages)"
-        )
+        rec.lost_messages = content.lost_messages
+        if content.past_data:
+            what = f"recovered all {kept} messages (the damage is past the data section)"
+        else:
+            what = (
+                f"recovered {kept} messages before byte {content.damage_offset}, lost at least "
+                f"{rec.lost_messages} (the file ends there: whatever was recorded after it cannot be counted)"
+            )
+        rec.warnings.append(f"{path}: {content.damage}; {what}")
     return rec
 
 

@@ -104,7 +104,9 @@ class McapContent:
     damage_offset: int | None = None
     lost_bytes: int = 0
     lost_messages: int = 0
-    """Messages known lost (counted from the message index of a skipped chunk)."""
+    """A lower bound of the messages lost: those of a chunk cut by the damage (estimated from its size)."""
+    past_data: bool = False
+    """The damage lies after the data section (in the summary): no message was lost."""
 
     def count(self, channel_id: int) -> int:
         """Messages read on a channel."""
@@ -303,13 +305,16 @@ def read_mcap(data: bytes, path: str, *, recover: bool = False) -> McapContent:
     collector = _Collector(content)
     size = len(data)
     pos = len(MAGIC)
+    data_end = False  # after DataEnd only the summary follows: damage there loses no message
 
-    def damaged(err: RecordingError, at: int) -> McapContent:
+    def damaged(err: RecordingError, at: int, lost: int = 0) -> McapContent:
         if not recover:
             raise err
         content.damage = str(err.what)
         content.damage_offset = at
         content.lost_bytes = size - at
+        content.lost_messages = 0 if data_end else lost
+        content.past_data = data_end
         return content
 
     while True:
@@ -320,13 +325,18 @@ def read_mcap(data: bytes, path: str, *, recover: bool = False) -> McapContent:
         op, length = _REC.unpack_from(data, pos)
         body = pos + 9
         if body + length > size:
+            lost = 0
             if op == OP_CHUNK and recover:
-                _salvage_chunk(data, pos, content, collector)
-            return damaged(TruncatedRecordingError(path, pos, f"record of {length} bytes cut off"), pos)
+                lost = _salvage_chunk(data, pos, content, collector)
+            elif op == OP_MESSAGE:
+                lost = 1
+            return damaged(TruncatedRecordingError(path, pos, f"record of {length} bytes cut off"), pos, lost)
         rec = memoryview(data)[body : body + length]
         try:
             if op == OP_HEADER:
                 content.profile, _ = _string(data, body)
+            elif op == OP_DATA_END:
+                data_end = True
             elif op == OP_FOOTER:
                 if data[body + length : body + length + 8] != MAGIC:
                     return damaged(TruncatedRecordingError(path, body + length, "end magic missing"), body + length)
@@ -408,14 +418,25 @@ def _read_chunk(rec: bytes, content: McapContent, collector: _Collector, indexes
     collector.add_walked(buf, msgs[0], msgs[1])
 
 
-def _salvage_chunk(data: bytes, at: int, content: McapContent, collector: _Collector) -> None:
-    """Keep the complete records at the front of a chunk cut off by the end of the file."""
+def _salvage_chunk(data: bytes, at: int, content: McapContent, collector: _Collector) -> int:
+    """Keep the complete records at the front of a chunk cut off by the end of the file.
+
+    Returns an estimate of the messages of this chunk that are lost (at least 1): the chunk's missing
+    uncompressed bytes over the mean message record size seen so far.
+    """
+    records = sum(int(b.lengths.sum()) + _MSG_HEAD * len(b) for bs in content.batches.values() for b in bs)
+    count = sum(len(b) for bs in content.batches.values() for b in bs)
     body = data[at + 9 :]
     try:
-        _usize, _crc, compression, rstart, _rlen = _chunk_header(body)
+        usize, _crc, compression, rstart, _rlen = _chunk_header(body)
         buf = _decompress(compression, body[rstart:], 0, partial=True)
     except (ValueError, struct.error, _CorruptError):
-        return
+        return 1
     msgs: tuple[list[int], list[int]] = ([], [])
     _walk_prefix(buf, content, msgs)
     collector.add_walked(buf, msgs[0], msgs[1])
+    covered = msgs[0][-1] + 9 + msgs[1][-1] if msgs[0] else 0
+    records += sum(msgs[1]) + 9 * len(msgs[1])
+    count += len(msgs[0])
+    mean = records / count if count else float(max(usize, 1))
+    return max(1, round((usize - covered) / mean))
