@@ -1,17 +1,91 @@
-"""``pbd simulate``: not built yet (issue 7)."""
+"""``pbd simulate DESCRIPTOR [--scene NAME | --urdf FILE [--joints J1,J2]] [--json] [--seed N] [--frames DIR]``.
+
+Executes the descriptor in pybullet (DIRECT, software renderer) and prints, per primitive, the demonstrated
+extent, the joint motion achieved, contact and time, then success. ``--json`` prints one JSON document on stdout
+alone. Exit 0 when executed (success or not is in the output), 2 for bad input. pybullet is imported in ``run``.
+"""
 
 from __future__ import annotations
 
 import argparse
+import json
+import math
+import sys
+from pathlib import Path
+from typing import TYPE_CHECKING
 
-from tasks.errors import NotBuiltError
+if TYPE_CHECKING:
+    from tasks.simulate.result import SimulationResult
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of ``pbd simulate`` (none until it is built)."""
-    parser.add_argument("rest", nargs=argparse.REMAINDER, help=argparse.SUPPRESS)
+    """Arguments of ``pbd simulate``."""
+    parser.add_argument("descriptor", metavar="DESCRIPTOR", help="file path, content id (8+ hex) or name@vN|latest")
+    where = parser.add_mutually_exclusive_group()
+    where.add_argument("--scene", metavar="NAME", help="built-in scene (default: the descriptor's object name)")
+    where.add_argument("--urdf", type=Path, metavar="FILE", help="your own articulated object (fixed base at origin)")
+    parser.add_argument(
+        "--joints", metavar="J1,J2", help="with --urdf: the joints the chain may drive, comma-separated"
+    )
+    parser.add_argument("--seed", type=int, default=None, help="randomised scene instance (as given to pbd synth)")
+    parser.add_argument("--frames", type=Path, metavar="DIR", help="write key frames (PNG) into DIR")
+    parser.add_argument(
+        "--grasp",
+        choices=("constraint", "friction"),
+        default="constraint",
+        help="hold the part by a fixed palm constraint once the fingers close (default) or by friction alone",
+    )
+    parser.add_argument("--json", action="store_true", help="machine-readable result on stdout")
 
 
-def run(args: argparse.Namespace) -> int:  # noqa: ARG001 - the stub ignores its arguments
-    """Refuse cleanly: this command is not built yet."""
-    raise NotBuiltError("simulate", 7)
+def _text(result: SimulationResult) -> str:
+    """The human-readable report: one line per primitive, then grasp, contact, time and success."""
+    lines = [f"scene {result.scene}  descriptor {result.descriptor_id[:12]}"]
+    lines.append(
+        f"{'#':>2} {'kind':<11} {'joint':<16} {'target':>9} {'achieved':>9} {'%':>5} {'contact':>8} "
+        f"{'time s':>7}  stopped"
+    )
+    for p in result.primitives:
+        scale, unit = (180.0 / math.pi, "°") if p.kind == "rotation" else (100.0, "cm")
+        lines.append(
+            f"{p.index:>2} {p.kind:<11} {p.joint:<16} {p.target * scale:>7.1f}{unit:<2} {p.achieved * scale:>7.1f}"
+            f"{unit:<2}{100 * p.fraction:>5.0f} {100 * p.contact_fraction:>7.0f}% {p.sim_time_s:>7.2f}  {p.stopped}"
+            f"{'' if p.success else '  (failed)'}"
+        )
+    lines.append(
+        f"grasped {'yes' if result.grasped else 'no'}  contact kept {'yes' if result.contact_kept else 'no'} "
+        f"({100 * result.contact_fraction:.0f}%)  grasp held by {result.grasp_mode}"
+    )
+    lines.append(
+        f"simulated {result.sim_time_s:.2f} s in {result.wall_time_s:.2f} s wall "
+        f"({result.real_time_factor:.0f}x real time)"
+    )
+    lines += [f"note: {note}" for note in result.notes]
+    lines += [f"frame: {frame}" for frame in result.frames]
+    lines.append(f"success: {'yes' if result.success else 'no'}")
+    return "\n".join(lines) + "\n"
+
+
+def run(args: argparse.Namespace) -> int:
+    """Load the descriptor, run the simulation, print the result; exit 0 once executed."""
+    import numpy as np  # noqa: PLC0415
+
+    from tasks.errors import SimulationError  # noqa: PLC0415
+    from tasks.simulate.api import simulate_descriptor  # noqa: PLC0415
+    from tasks.store import Store, resolve_store_root  # noqa: PLC0415
+
+    if args.joints and args.urdf is None:
+        msg = "--joints needs --urdf"
+        raise SimulationError(msg)
+    store = Store(resolve_store_root(args.store))
+    desc = store.load(args.descriptor)
+    joints = [j.strip() for j in args.joints.split(",") if j.strip()] if args.joints else None
+    rng = np.random.default_rng(args.seed) if args.seed is not None else None
+    result = simulate_descriptor(
+        desc, scene=args.scene, urdf=args.urdf, joints=joints, rng=rng, frames_dir=args.frames, grasp_mode=args.grasp
+    )
+    if args.json:
+        sys.stdout.write(json.dumps(result.to_dict(), indent=2, sort_keys=True) + "\n")
+    else:
+        sys.stdout.write(_text(result))
+    return 0

@@ -1,0 +1,492 @@
+"""Execute a descriptor with the iiwa + Barrett hand in pybullet (paper Section V-A).
+
+Order: place the base (IK sweep), start at the pre-grasp pose (``PREGRASP_BACK_M`` back along the approach),
+approach along the palm's +z, close the hand towards the grasp's eigengrasp DOFs until the fingers stop on the
+object, then run each primitive: Cartesian palm waypoints along the arc about the axis (the hand turns with the
+part) or the line along the direction, IK seeded from the last solution, position control with the iiwa's torque
+limits; move on when the driven joint has reached the extent or progress stops. Finally hold still for
+``HOLD_S`` and judge success (``result.py``).
+
+Grasp modes: ``"friction"`` relies on the closed fingers' contact friction alone; ``"constraint"`` adds a fixed
+constraint between palm and the grasped link once the fingers have closed on it (a common simulation stand-in
+for a firm grasp, which pybullet's soft contacts do not hold under large wrist torques). Contact is measured the
+same way in both modes.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+
+from schemas.descriptor import Descriptor, Primitive
+from tasks.arrays import FloatArray
+from tasks.errors import SimulationError
+from tasks.grasp import barrett
+from tasks.simulate import robot as rb
+from tasks.simulate.ik import solve_ik
+from tasks.simulate.matching import JointAxis, JointMatch, match_chain
+from tasks.simulate.placement import KeyPose, place_base
+from tasks.simulate.render import save_frame
+from tasks.simulate.result import (
+    CONTACT_KEPT_FRACTION,
+    STILL_ANGULAR_RAD_S,
+    STILL_LINEAR_M_S,
+    SUCCESS_FRACTION,
+    PrimitiveResult,
+    SimulationResult,
+    StopReason,
+)
+from tasks.simulate.waypoints import (
+    Waypoints,
+    approach_axis,
+    arc_waypoints,
+    line_waypoints,
+    matrix_from_axis_angle,
+)
+
+TIME_STEP_S = 1.0 / 120.0
+"""Physics step, seconds (half pybullet's default rate: the door test's outcomes are unchanged, at twice the speed)."""
+SOLVER_ITERATIONS = 20
+"""Constraint solver iterations per step (pybullet's default is 50; 20 gave the same outcomes on the test door)."""
+STEPS_PER_WAYPOINT = 3
+"""Physics steps per waypoint: 1° or 5 mm per 25 ms, i.e. 0.7 rad/s or 0.2 m/s along the path."""
+TRACK_IK_ITERATIONS = 20
+"""IK iterations per waypoint while tracking (the seed is the last solution, a degree or 5 mm away)."""
+PREGRASP_BACK_M = 0.10
+"""Pre-grasp palm pose: 10 cm back along the approach direction."""
+CLOSE_EXTRA_RAD = 0.5
+"""The fingers are driven this far past the grasp's DOFs, so they squeeze when they stop on the object."""
+CLOSE_MAX_S = 1.0
+HOLD_S = 0.5
+"""Simulated seconds held still after the chain before judging stillness."""
+SETTLE_MAX_S = 1.0
+"""At most this long after the last waypoint for the joint to catch up."""
+STALL_WINDOW = 30
+"""Waypoints over which progress is judged (0.75 s) ..."""
+STALL_MIN_FRACTION = 0.02
+"""... a primitive has stalled when its joint moved less than 2% of the extent over the window."""
+KEY_EVERY = 15
+"""Every 15th waypoint (15° or 7.5 cm) is a key pose for base placement."""
+SCENE_JOINT_FRICTION_NM = 0.3
+"""Dry friction of otherwise unactuated scene joints (a velocity motor with this force limit), N·m or N."""
+
+GraspMode = Literal["constraint", "friction"]
+
+
+@dataclass(frozen=True)
+class SceneSetup:
+    """How to build the scene in a pybullet client: ``load(client) -> body id``; the joints the chain may drive
+    (``joints``; None = every revolute/prismatic joint); the link the grasp holds (None = the link the fingers
+    touch most); ``floor_z`` the lowest base height (metres)."""
+
+    name: str
+    load: Callable[[int], int]
+    joints: tuple[str, ...] | None = None
+    grasp_link: str | None = None
+    floor_z: float = 0.0
+    set_joint_friction: bool = True
+
+
+@dataclass(frozen=True)
+class _Joint:
+    index: int
+    axis: JointAxis
+    lower: float
+    upper: float
+
+
+def scene_joints(client: int, body: int, names: Sequence[str] | None, scene_name: str = "scene") -> list[_Joint]:
+    """The scene body's revolute/prismatic joints (world axes at the current state), optionally only ``names``."""
+    import pybullet as pb  # noqa: PLC0415
+
+    found: list[_Joint] = []
+    by_name: dict[str, int] = {}
+    for j in range(pb.getNumJoints(body, physicsClientId=client)):
+        info = pb.getJointInfo(body, j, physicsClientId=client)
+        name = info[1].decode()
+        by_name[name] = j
+        if info[2] not in (pb.JOINT_REVOLUTE, pb.JOINT_PRISMATIC):
+            continue
+        if names is not None and name not in names:
+            continue
+        state = pb.getLinkState(body, j, computeForwardKinematics=True, physicsClientId=client)
+        rot = np.array(pb.getMatrixFromQuaternion(state[5]), dtype=np.float64).reshape(3, 3)
+        direction = rot @ np.array(info[13], dtype=np.float64)
+        kind: Literal["revolute", "prismatic"] = "revolute" if info[2] == pb.JOINT_REVOLUTE else "prismatic"
+        axis = JointAxis(name, kind, np.array(state[4], dtype=np.float64), direction / np.linalg.norm(direction))
+        found.append(_Joint(j, axis, float(info[8]), float(info[9])))
+    if names is not None:
+        missing = [n for n in names if n not in {f.axis.name for f in found}]
+        if missing:
+            names_found = ", ".join(sorted(by_name))
+            msg = f"scene {scene_name}: no revolute/prismatic joint named {', '.join(missing)} (joints: {names_found})"
+            raise SimulationError(msg)
+        found.sort(key=lambda f: list(names).index(f.axis.name))
+    return found
+
+
+def primitive_waypoints(primitive: Primitive, position: FloatArray, quat: FloatArray) -> Waypoints:
+    """Palm waypoints for one primitive from the palm pose (``position``, ``quat``), world frame."""
+    if primitive.kind == "rotation":
+        if primitive.pos is None:
+            msg = "rotation primitive without an axis point"
+            raise SimulationError(msg)
+        return arc_waypoints(position, quat, primitive.pos, primitive.dir, primitive.extent)
+    return line_waypoints(position, quat, primitive.dir, primitive.extent)
+
+
+def key_poses(
+    desc: Descriptor, matches: Sequence[JointMatch], joints: dict[str, _Joint], q0: dict[int, float]
+) -> list[KeyPose]:
+    """Palm poses the arm must reach: pre-grasp, grasp, then every ``KEY_EVERY``-th waypoint along the chain."""
+    assert desc.grasp is not None
+    p = np.array(desc.grasp.wrist_position, dtype=np.float64)
+    q = np.array(desc.grasp.wrist_orientation, dtype=np.float64)
+    q /= np.linalg.norm(q)
+    state = dict(q0)
+    keys = [
+        KeyPose(p - PREGRASP_BACK_M * approach_axis(q), q, dict(state)),
+        KeyPose(p, q, dict(state)),
+    ]
+    for prim, match in zip(desc.chain, matches, strict=True):
+        wps = primitive_waypoints(prim, p, q)
+        joint = joints[match.joint].index
+        start = state[joint]
+        for i in range(KEY_EVERY, len(wps) + KEY_EVERY - 1, KEY_EVERY):
+            k = min(i, len(wps) - 1)
+            state[joint] = start + match.sign * float(wps.progress[k])
+            keys.append(KeyPose(wps.positions[k], wps.quats[k], dict(state)))
+        p, q = wps.positions[-1], wps.quats[-1]
+    return keys
+
+
+class _Run:
+    """The mutable state of one execution (physics and planning clients, clocks, contact counts)."""
+
+    def __init__(self, setup: SceneSetup, frames_dir: Path | None) -> None:
+        import pybullet as pb  # noqa: PLC0415
+
+        self.pb = pb
+        self.setup = setup
+        self.frames_dir = frames_dir
+        self.frames: list[str] = []
+        self.sim = int(pb.connect(pb.DIRECT))
+        self.plan = int(pb.connect(pb.DIRECT))
+        for c in (self.sim, self.plan):
+            pb.setGravity(0.0, 0.0, -9.81, physicsClientId=c)
+            pb.setTimeStep(TIME_STEP_S, physicsClientId=c)
+        pb.setPhysicsEngineParameter(numSolverIterations=SOLVER_ITERATIONS, physicsClientId=self.sim)
+        self.scene = setup.load(self.sim)
+        self.plan_scene = setup.load(self.plan)
+        self.steps = 0
+        self.contact_checks = 0
+        self.contact_hits = 0
+        self.q = rb.ARM_REST.copy()
+        self.robot: rb.Robot | None = None
+        self.planner: rb.Robot | None = None
+        self.camera_target = np.zeros(3)
+        self.camera_eye = np.ones(3)
+
+    def close(self) -> None:
+        for c in (self.sim, self.plan):
+            self.pb.disconnect(physicsClientId=c)
+
+    # --- physics ---------------------------------------------------------------------------------------
+    def step(self, n: int) -> None:
+        for _ in range(n):
+            self.pb.stepSimulation(physicsClientId=self.sim)
+        self.steps += n
+
+    @property
+    def sim_time_s(self) -> float:
+        return self.steps * TIME_STEP_S
+
+    def hand_contacts(self) -> list[int]:
+        """Scene links touched by any hand link now."""
+        assert self.robot is not None
+        pts = self.pb.getContactPoints(self.robot.body, self.scene, physicsClientId=self.sim)
+        return [int(p[4]) for p in pts if p[3] in rb.HAND_LINKS]
+
+    def fingers_touching(self) -> int:
+        assert self.robot is not None
+        pts = self.pb.getContactPoints(self.robot.body, self.scene, physicsClientId=self.sim)
+        links = {int(p[3]) for p in pts}
+        return sum(1 for prox, dist in rb.FINGER_LINKS if prox in links or dist in links)
+
+    def check_contact(self) -> bool:
+        touching = bool(self.hand_contacts())
+        self.contact_checks += 1
+        self.contact_hits += int(touching)
+        return touching
+
+    def joint_value(self, index: int) -> tuple[float, float]:
+        state = self.pb.getJointState(self.scene, index, physicsClientId=self.sim)
+        return float(state[0]), float(state[1])
+
+    def frame(self, label: str) -> None:
+        if self.frames_dir is None:
+            return
+        path = self.frames_dir / f"{len(self.frames):02d}-{label}.png"
+        save_frame(self.sim, path, self.camera_eye, self.camera_target)
+        self.frames.append(str(path))
+
+    # --- motion --------------------------------------------------------------------------------------------
+    def move_to(self, position: FloatArray, quat: FloatArray) -> None:
+        assert self.robot is not None and self.planner is not None
+        sol = solve_ik(self.planner, position, quat, self.q, rounds=2, iterations=TRACK_IK_ITERATIONS)
+        self.q = sol.q
+        rb.drive_arm(self.robot, self.q)
+
+
+def _grasp_constraint(run: _Run, link: int) -> int:
+    """A fixed constraint holding the palm to scene ``link`` in their current relative pose."""
+    pb = run.pb
+    assert run.robot is not None
+    palm = pb.getLinkState(run.robot.body, rb.PALM_LINK, physicsClientId=run.sim)
+    if link == -1:
+        child_pos, child_orn = pb.getBasePositionAndOrientation(run.scene, physicsClientId=run.sim)
+    else:
+        child = pb.getLinkState(run.scene, link, physicsClientId=run.sim)
+        child_pos, child_orn = child[0], child[1]
+    inv_pos, inv_orn = pb.invertTransform(child_pos, child_orn)
+    rel_pos, rel_orn = pb.multiplyTransforms(inv_pos, inv_orn, palm[0], palm[1])
+    cid = int(
+        pb.createConstraint(
+            run.robot.body,
+            rb.PALM_LINK,
+            run.scene,
+            link,
+            pb.JOINT_FIXED,
+            [0.0, 0.0, 0.0],
+            [0.0, 0.0, 0.0],
+            rel_pos,
+            parentFrameOrientation=[0.0, 0.0, 0.0, 1.0],
+            childFrameOrientation=rel_orn,
+            physicsClientId=run.sim,
+        )
+    )
+    pb.changeConstraint(cid, maxForce=2000.0, physicsClientId=run.sim)
+    return cid
+
+
+def _link_index(run: _Run, name: str) -> int:
+    pb = run.pb
+    base = pb.getBodyInfo(run.scene, physicsClientId=run.sim)[0].decode()
+    if name == base:
+        return -1
+    for j in range(pb.getNumJoints(run.scene, physicsClientId=run.sim)):
+        if pb.getJointInfo(run.scene, j, physicsClientId=run.sim)[12].decode() == name:
+            return j
+    msg = f"scene {run.setup.name}: no link named {name}"
+    raise SimulationError(msg)
+
+
+def _execute_primitive(run: _Run, index: int, prim: Primitive, match: JointMatch, joint: _Joint) -> PrimitiveResult:
+    assert run.robot is not None
+    start_steps = run.steps
+    p, q = rb.palm_pose(run.robot)
+    wps = primitive_waypoints(prim, p, q)
+    q_start, _ = run.joint_value(joint.index)
+    checks0, hits0 = run.contact_checks, run.contact_hits
+    history: list[float] = []
+    stopped: StopReason = "end of path"
+
+    def achieved() -> float:
+        return match.sign * (run.joint_value(joint.index)[0] - q_start)
+
+    for i in range(1, len(wps)):
+        run.move_to(wps.positions[i], wps.quats[i])
+        run.step(STEPS_PER_WAYPOINT)
+        run.check_contact()
+        a = achieved()
+        history.append(a)
+        if a >= prim.extent:
+            stopped = "extent reached"
+            break
+        if len(history) > STALL_WINDOW and history[-1] - history[-1 - STALL_WINDOW] < STALL_MIN_FRACTION * prim.extent:
+            stopped = "stalled"
+            break
+    if stopped == "end of path":
+        for _ in range(int(SETTLE_MAX_S / (STEPS_PER_WAYPOINT * TIME_STEP_S))):
+            run.step(STEPS_PER_WAYPOINT)
+            run.check_contact()
+            if achieved() >= prim.extent:
+                stopped = "extent reached"
+                break
+            _, vel = run.joint_value(joint.index)
+            if abs(vel) < 0.02:
+                break
+    run.frame(f"primitive-{index}")
+    checks = run.contact_checks - checks0
+    hits = run.contact_hits - hits0
+    return PrimitiveResult(
+        index=index,
+        kind=prim.kind,
+        joint=joint.axis.name,
+        target=prim.extent,
+        achieved=achieved(),
+        contact_fraction=hits / checks if checks else 0.0,
+        sim_time_s=(run.steps - start_steps) * TIME_STEP_S,
+        stopped=stopped,
+        end_speed=0.0,
+        success=False,
+    )
+
+
+def execute(
+    desc: Descriptor,
+    setup: SceneSetup,
+    *,
+    grasp_mode: GraspMode = "constraint",
+    frames_dir: Path | None = None,
+) -> SimulationResult:
+    """Run ``desc`` in a fresh pybullet DIRECT world built by ``setup`` and judge it (see the module docstring).
+
+    ``SimulationError`` when the descriptor does not fit: no grasp, a primitive with no joint to drive or an
+    axis far from every joint, or no base placement reaching the chain.
+    """
+    if desc.grasp is None:
+        msg = f"descriptor {desc.name}: has no grasp (plan one first), nothing to hold the object with"
+        raise SimulationError(msg)
+    wall0 = time.perf_counter()
+    run = _Run(setup, frames_dir)
+    try:
+        return _execute(run, desc, grasp_mode, wall0)
+    finally:
+        run.close()
+
+
+def _execute(run: _Run, desc: Descriptor, grasp_mode: GraspMode, wall0: float) -> SimulationResult:
+    pb = run.pb
+    assert desc.grasp is not None
+    joints = scene_joints(run.sim, run.scene, run.setup.joints, run.setup.name)
+    matches = match_chain(desc.chain, [j.axis for j in joints])
+    by_name = {j.axis.name: j for j in joints}
+    if run.setup.set_joint_friction:
+        for j in scene_joints(run.sim, run.scene, None):
+            pb.setJointMotorControl2(
+                run.scene, j.index, pb.VELOCITY_CONTROL, force=SCENE_JOINT_FRICTION_NM, physicsClientId=run.sim
+            )
+    q0 = {j.index: run.joint_value(j.index)[0] for j in joints}
+    keys = key_poses(desc, matches, by_name, q0)
+
+    # Base placement in the planning client (scene + robot, kinematic only).
+    run.planner = rb.load_robot(run.plan, [0.0, 0.0, -5.0], [0.0, 0.0, 0.0, 1.0])
+    placement = place_base(run.planner, run.plan_scene, keys, run.setup.floor_z)
+    pb.resetBasePositionAndOrientation(
+        run.planner.body, placement.base_position.tolist(), placement.base_quat.tolist(), physicsClientId=run.plan
+    )
+    run.robot = rb.load_robot(run.sim, placement.base_position, placement.base_quat)
+    centre = np.mean([k.position for k in keys], axis=0)
+    run.camera_target = 0.6 * centre + 0.4 * placement.base_position
+    to_base = placement.base_position - centre
+    to_base[2] = 0.0
+    side = matrix_from_axis_angle([0.0, 0.0, 1.0], math.radians(55.0)) @ (to_base / (np.linalg.norm(to_base) + 1e-9))
+    run.camera_eye = run.camera_target + 2.0 * side + np.array([0.0, 0.0, 0.9])
+
+    # Pre-grasp: arm at the first key pose, hand open at the grasp's spread.
+    target_dofs = barrett.dofs_from_eigengrasps(*desc.grasp.eigengrasps)
+    open_dofs = np.array([target_dofs[0], 0.0, 0.0, 0.0])
+    run.q = placement.q_path[0].copy()
+    rb.set_arm(run.robot, run.q)
+    rb.set_hand(run.robot, open_dofs)
+    run.step(int(0.05 / TIME_STEP_S))
+    run.frame("pregrasp")
+
+    # Approach along +z of the palm.
+    pre = keys[0]
+    approach = line_waypoints(pre.position, pre.quat, approach_axis(pre.quat), PREGRASP_BACK_M)
+    for i in range(1, len(approach)):
+        run.move_to(approach.positions[i], approach.quats[i])
+        run.step(STEPS_PER_WAYPOINT)
+    run.step(int(0.1 / TIME_STEP_S))
+
+    # Close by the eigengrasp amplitudes until the fingers stop on the object.
+    squeeze = target_dofs.copy()
+    squeeze[1:] = np.minimum(squeeze[1:] + CLOSE_EXTRA_RAD, barrett.DOF_UPPER[1:])
+    rb.drive_hand(run.robot, squeeze)
+    prev = rb.hand_dofs(run.robot)
+    for _ in range(int(CLOSE_MAX_S / (STEPS_PER_WAYPOINT * TIME_STEP_S))):
+        run.step(STEPS_PER_WAYPOINT)
+        now = rb.hand_dofs(run.robot)
+        if run.fingers_touching() >= 2 and float(np.max(np.abs(now - prev))) < 0.002:
+            break
+        prev = now
+    touched = run.hand_contacts()
+    grasped = run.fingers_touching() >= 2
+    notes: list[str] = []
+    if grasp_mode == "constraint" and touched:
+        if run.setup.grasp_link is not None:
+            link = _link_index(run, run.setup.grasp_link)
+        else:
+            link = max(set(touched), key=touched.count)
+        _grasp_constraint(run, link)
+    elif grasp_mode == "constraint":
+        notes.append("no hand-object contact after closing: no grasp constraint made")
+    run.frame("grasped")
+    run.contact_checks = run.contact_hits = 0
+
+    results: list[PrimitiveResult] = []
+    for i, (prim, match) in enumerate(zip(desc.chain, matches, strict=True)):
+        results.append(_execute_primitive(run, i, prim, match, by_name[match.joint]))
+
+    # Hold still, then judge.
+    run.step(int(HOLD_S / TIME_STEP_S))
+    end_contact = run.check_contact()
+    contact_fraction = run.contact_hits / run.contact_checks if run.contact_checks else 0.0
+    contact_kept = end_contact and contact_fraction >= CONTACT_KEPT_FRACTION
+    judged: list[PrimitiveResult] = []
+    for res, match in zip(results, matches, strict=True):
+        joint = by_name[match.joint]
+        _, vel = run.joint_value(joint.index)
+        limit = STILL_ANGULAR_RAD_S if joint.axis.kind == "revolute" else STILL_LINEAR_M_S
+        ok = res.achieved >= SUCCESS_FRACTION * res.target and abs(vel) < limit
+        judged.append(
+            PrimitiveResult(
+                res.index,
+                res.kind,
+                res.joint,
+                res.target,
+                res.achieved,
+                res.contact_fraction,
+                res.sim_time_s,
+                res.stopped,
+                abs(vel),
+                ok,
+            )
+        )
+    run.frame("end")
+    success = grasped and contact_kept and all(r.success for r in judged)
+    if not grasped:
+        notes.append("fewer than two fingers closed on the object")
+    return SimulationResult(
+        descriptor_id=desc.id,
+        scene=run.setup.name,
+        primitives=tuple(judged),
+        grasped=grasped,
+        contact_fraction=contact_fraction,
+        contact_kept=contact_kept,
+        success=success,
+        sim_time_s=run.sim_time_s,
+        wall_time_s=time.perf_counter() - wall0,
+        base_position=(
+            float(placement.base_position[0]),
+            float(placement.base_position[1]),
+            float(placement.base_position[2]),
+        ),
+        base_quat=(
+            float(placement.base_quat[0]),
+            float(placement.base_quat[1]),
+            float(placement.base_quat[2]),
+            float(placement.base_quat[3]),
+        ),
+        grasp_mode=grasp_mode,
+        frames=tuple(run.frames),
+        notes=tuple(notes),
+    )

@@ -1,0 +1,137 @@
+"""Automatic base placement: sweep candidate base poses until IK reaches every palm pose of the chain.
+
+Candidates stand on circles about the centre of the palm path, behind the hand's approach direction first,
+at a few radii and heights (the base is a fixed pedestal mount; the pedestal itself is not modelled). A
+candidate is accepted when pybullet's limited IK, seeded along the path, reaches every key pose (within
+``IK_POSITION_TOL_M``/``IK_ANGLE_TOL_RAD``) and no arm link penetrates the scene at any of them, with the scene's
+joints set to where the chain puts them.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from tasks.arrays import FloatArray
+from tasks.errors import SimulationError
+from tasks.simulate.ik import solve_ik
+from tasks.simulate.robot import ARM_JOINTS, ARM_REST, Robot
+from tasks.simulate.waypoints import approach_axis, matrix_from_axis_angle, quat_from_matrix
+
+RADII_M: tuple[float, ...] = (0.60, 0.50, 0.72, 0.40, 0.85)
+"""Horizontal distances of the base from the palm path's centre, metres (the iiwa reaches 0.82 m)."""
+HEIGHTS_M: tuple[float, ...] = (0.35, 0.15, 0.55, -0.05)
+"""Palm-path centre height above the base, metres (the iiwa's shoulder is 0.36 m above its base)."""
+YAWS_DEG: tuple[float, ...] = (0.0, 30.0, -30.0, 60.0, -60.0, 90.0, -90.0, 135.0, -135.0, 180.0)
+"""Bearing of the base from the path centre relative to 'behind the approach', degrees."""
+SHOULDER_HEIGHT_M = 0.36
+"""iiwa axis 2 above the base, metres."""
+MAX_REACH_M = 0.82 + 0.205
+"""Shoulder to wrist (0.42 + 0.40 m) plus wrist to palm (0.126 m flange + 0.08 m palm): no key farther than this."""
+PENETRATION_TOL_M = 0.005
+"""Arm-scene penetration tolerated at a key pose, metres."""
+
+
+@dataclass(frozen=True)
+class KeyPose:
+    """A palm pose the arm must reach: ``position`` (3,) m, ``quat`` (4,) [x,y,z,w] world, and the scene joint
+    angles there (``scene_joints``: pybullet joint index -> radians or metres)."""
+
+    position: FloatArray
+    quat: FloatArray
+    scene_joints: dict[int, float]
+
+
+@dataclass(frozen=True)
+class Placement:
+    """An accepted base pose (world, metres, [x,y,z,w]), the arm angles (k, 7) at the key poses, and how many
+    candidates were tried."""
+
+    base_position: FloatArray
+    base_quat: FloatArray
+    q_path: FloatArray
+    candidates_tried: int
+
+
+def candidate_bases(keys: Sequence[KeyPose], floor_z: float = 0.0) -> list[tuple[FloatArray, FloatArray]]:
+    """Candidate base poses (position (3,), quat (4,)) in preference order; each faces the path centre."""
+    centre = np.mean([k.position for k in keys], axis=0)
+    approach = approach_axis(keys[0].quat)
+    horizontal = np.array([approach[0], approach[1], 0.0])
+    behind = -horizontal / np.linalg.norm(horizontal) if np.linalg.norm(horizontal) > 1e-3 else np.array([-1.0, 0, 0])
+    out: list[tuple[FloatArray, FloatArray]] = []
+    for height in HEIGHTS_M:
+        for radius in RADII_M:
+            for yaw in YAWS_DEG:
+                bearing = matrix_from_axis_angle([0.0, 0.0, 1.0], math.radians(yaw)) @ behind
+                base = centre + radius * bearing
+                base[2] = max(floor_z, centre[2] - height)
+                facing = math.atan2(-bearing[1], -bearing[0])
+                quat = quat_from_matrix(matrix_from_axis_angle([0.0, 0.0, 1.0], facing))
+                out.append((base, quat))
+    return out
+
+
+def _penetrates(robot: Robot, scene_body: int) -> bool:
+    import pybullet as pb  # noqa: PLC0415
+
+    for link in (-1, *ARM_JOINTS):
+        pts = pb.getClosestPoints(robot.body, scene_body, 0.0, linkIndexA=link, physicsClientId=robot.client)
+        if any(p[8] < -PENETRATION_TOL_M for p in pts):
+            return True
+    return False
+
+
+def reach_keys(robot: Robot, scene_body: int, keys: Sequence[KeyPose]) -> FloatArray | None:
+    """(k, 7) arm angles reaching every key pose from the robot's current base, seeded along; None if not."""
+    import pybullet as pb  # noqa: PLC0415
+
+    q = ARM_REST.copy()
+    path = []
+    for i, key in enumerate(keys):
+        sol = solve_ik(robot, key.position, key.quat, q, rounds=6 if i == 0 else 3, iterations=100 if i == 0 else 40)
+        if not sol.ok:
+            return None
+        for joint, value in key.scene_joints.items():
+            pb.resetJointState(scene_body, joint, value, 0.0, physicsClientId=robot.client)
+        pb.performCollisionDetection(physicsClientId=robot.client)
+        if _penetrates(robot, scene_body):
+            return None
+        q = sol.q
+        path.append(q)
+    return np.array(path)
+
+
+def place_base(robot: Robot, scene_body: int, keys: Sequence[KeyPose], floor_z: float = 0.0) -> Placement:
+    """Sweep ``candidate_bases`` in the planning client; the first candidate that reaches all keys wins.
+
+    ``SimulationError`` if none does (names the number of candidates and the path centre).
+    """
+    import pybullet as pb  # noqa: PLC0415
+
+    if not keys:
+        msg = "no key poses to place the robot for"
+        raise SimulationError(msg)
+    saved = {j: pb.getJointState(scene_body, j, physicsClientId=robot.client)[0] for k in keys for j in k.scene_joints}
+    cands = candidate_bases(keys, floor_z)
+    try:
+        for tried, (base, quat) in enumerate(cands, start=1):
+            shoulder = base + np.array([0.0, 0.0, SHOULDER_HEIGHT_M])
+            if max(float(np.linalg.norm(k.position - shoulder)) for k in keys) > MAX_REACH_M:
+                continue
+            pb.resetBasePositionAndOrientation(robot.body, base.tolist(), quat.tolist(), physicsClientId=robot.client)
+            q_path = reach_keys(robot, scene_body, keys)
+            if q_path is not None:
+                return Placement(base, quat, q_path, tried)
+    finally:
+        for joint, value in saved.items():
+            pb.resetJointState(scene_body, joint, value, 0.0, physicsClientId=robot.client)
+    centre = np.mean([k.position for k in keys], axis=0)
+    msg = (
+        f"no base placement among {len(cands)} candidates reaches the whole chain "
+        f"(palm path centre {np.round(centre, 3).tolist()} m)"
+    )
+    raise SimulationError(msg)
