@@ -1,17 +1,92 @@
-"""``pbd archive``: not built yet (issue 8)."""
+"""``pbd archive DIR``: the reprocessing flow over every recording in DIR, with a progress bar.
+
+With ``--address tcp://HOST:PORT`` the tasks run on an existing Dask cluster (prefect-dask's DaskTaskRunner);
+without it they run concurrently on this machine, ``--workers`` recordings at a time.
+"""
 
 from __future__ import annotations
 
 import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
 
-from tasks.errors import NotBuiltError
+from flows.cli_args import add_param_argument, parse_params
+from tasks.store import resolve_store_root
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of ``pbd archive`` (none until it is built)."""
-    parser.add_argument("rest", nargs=argparse.REMAINDER, help=argparse.SUPPRESS)
+    """Arguments of ``pbd archive``."""
+    parser.add_argument("dir", type=Path, help="folder of recordings (*.mcap, *.bag, rosbag2 folders)")
+    parser.add_argument("--address", metavar="tcp://HOST:PORT", help="run the tasks on this Dask scheduler")
+    parser.add_argument("--workers", type=int, default=2, metavar="N", help="recordings in flight at once")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the grasp planner's random generator")
+    add_param_argument(parser)
+    parser.add_argument("--no-report", action="store_true", help="skip the HTML report")
+    parser.add_argument("--json", action="store_true", help="print the run summary as JSON on stdout")
 
 
-def run(args: argparse.Namespace) -> int:  # noqa: ARG001 - the stub ignores its arguments
-    """Refuse cleanly: this command is not built yet."""
-    raise NotBuiltError("archive", 8)
+def _print_summary(summary: dict[str, Any]) -> None:
+    from rich.console import Console  # noqa: PLC0415
+    from rich.table import Table  # noqa: PLC0415
+
+    console = Console()
+    table = Table(title="reprocess-archive")
+    for col in ("recording", "status", "descriptor", "id", "simulation"):
+        table.add_column(col)
+    for row in summary["entries"]:
+        sim = row["simulation_success"]
+        table.add_row(
+            Path(row["source"]).name,
+            row["status"] if row["error"] is None else f"failed: {row['error']}",
+            row["descriptor"] or "-",
+            (row["id"] or "-")[:12],
+            "-" if sim is None else ("success" if sim else "failed"),
+        )
+    console.print(table)
+    counts = summary["counts"]
+    console.print(
+        f"{counts['new']} new, {counts['changed']} changed, {counts['unchanged']} unchanged, {counts['failed']} failed"
+    )
+    if summary["report"]:
+        console.print(f"report: {summary['report']}")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``reprocess-archive`` over ``args.dir``; exit 0 when every recording was processed, 1 otherwise."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn  # noqa: PLC0415
+
+    from flows.discover import find_recordings  # noqa: PLC0415
+    from flows.progress import listening  # noqa: PLC0415
+    from flows.reprocess_archive import reprocess_archive  # noqa: PLC0415
+    from flows.runtime import cli_settings  # noqa: PLC0415
+
+    params = parse_params(args.param)
+    find_recordings(args.dir)  # fail fast, before Prefect starts, on a missing folder
+    flow = reprocess_archive
+    if args.address:
+        from prefect_dask.task_runners import DaskTaskRunner  # noqa: PLC0415
+
+        flow = flow.with_options(task_runner=DaskTaskRunner(address=args.address))  # type: ignore[arg-type]
+    columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
+    with cli_settings(), Progress(*columns, transient=args.json, disable=args.json) as progress:
+        bar = progress.add_task("starting Prefect", total=None)
+
+        def on_progress(done: int, total: int, label: str) -> None:
+            progress.update(bar, total=total, completed=done, description=f"recordings ({label or 'queued'})")
+
+        with listening(on_progress):
+            summary = flow(
+                archive=str(args.dir.resolve()),
+                store=str(resolve_store_root(args.store).resolve()),
+                params=params,
+                seed=args.seed,
+                workers=args.workers,
+                report=not args.no_report,
+            )
+    if args.json:
+        sys.stdout.write(json.dumps(summary, indent=2) + "\n")
+    else:
+        _print_summary(dict(summary))
+    return 0 if summary["counts"]["failed"] == 0 else 1

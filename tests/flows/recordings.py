@@ -32,8 +32,13 @@ def door_positions(angle_rad: float, rate_hz: float = 100.0) -> tuple[np.ndarray
     return stamps, pts, angle
 
 
-def write_door_recording(path: Path, fmt: str = "mcap", angle_rad: float = 1.2, seed: int = 0) -> Path:
-    """Write a door-opening demonstration to ``path`` (file, or folder for rosbag2); returns ``path``."""
+def write_door_recording(
+    path: Path, fmt: str = "mcap", angle_rad: float = 1.2, seed: int = 0, *, with_model: bool = True
+) -> Path:
+    """Write a door-opening demonstration to ``path`` (file, or folder for rosbag2); returns ``path``.
+
+    Without the object model cloud, learning plans no grasp (seconds faster).
+    """
     rng = np.random.default_rng(seed)
     stamps, pts, angle = door_positions(angle_rad)
     noisy = pts + rng.normal(0.0, 3e-4, pts.shape)
@@ -43,6 +48,7 @@ def write_door_recording(path: Path, fmt: str = "mcap", angle_rad: float = 1.2, 
             writer.add_points(f"/mocap/door_{i}", stamps, noisy[i])
         quat = np.column_stack([np.zeros_like(angle), np.zeros_like(angle), np.sin(angle / 2), np.cos(angle / 2)])
         writer.add_poses("/wrist/pose", stamps, pts[0] + np.array([0.0, -0.08, 0.0]), quat)
-        writer.add_cloud("/object/cloud", int(stamps[0]), HINGE + leaf)
+        if with_model:
+            writer.add_cloud("/object/cloud", int(stamps[0]), HINGE + leaf)
         writer.add_string("/demo/meta", int(stamps[0]), json.dumps({"action": "open", "object": "door"}))
     return path

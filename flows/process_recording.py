@@ -1,0 +1,32 @@
+"""Flow ``process-recording``: one recording through ingest, learn (segment, fit, grasp), store, and report."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from prefect import flow
+from prefect.task_runners import ThreadPoolTaskRunner
+
+from flows.chain import ChainSettings, run_chains
+from flows.summary import RunSummary, summarise
+from tasks.report.task import report_task
+from tasks.store import resolve_store_root
+
+
+@flow(name="process-recording", task_runner=ThreadPoolTaskRunner[Any](max_workers=4), persist_result=False)  # type: ignore[arg-type]  # TaskRunner is invariant in its future type
+def process_recording(
+    recording: str,
+    *,
+    store: str | None = None,
+    params: dict[str, Any] | None = None,
+    name: str | None = None,
+    seed: int = 0,
+    report: bool = True,
+) -> RunSummary:
+    """Ingest → learn → store (→ simulate) → report for the recording at ``recording`` (file or rosbag2 folder)."""
+    root = str(resolve_store_root(store).resolve())
+    settings = ChainSettings(root, dict(params or {}), seed, name)
+    entries = run_chains([Path(recording)], settings, workers=1)
+    html = report_task(root, f"process-recording {Path(recording).name}", entries) if report else None
+    return summarise(entries, html)

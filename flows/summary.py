@@ -1,0 +1,43 @@
+"""What a flow run returns: counts by status and where the descriptors and the report are."""
+
+from __future__ import annotations
+
+from collections import Counter
+from collections.abc import Sequence
+from typing import Any, TypedDict
+
+from tasks.report.refs import EntryResult
+
+
+class RunSummary(TypedDict):
+    """A flow run's outcome (JSON-ready): counts by status, one row per recording, the report path."""
+
+    counts: dict[str, int]
+    entries: list[dict[str, Any]]
+    report: str | None
+
+
+def summarise(entries: Sequence[EntryResult], report_html: str | None) -> RunSummary:
+    """Counts of new / unchanged / changed / failed and a row per recording."""
+    counts = Counter(e.status for e in entries)
+    rows = []
+    for e in entries:
+        d = e.descriptor
+        sim = e.simulation
+        rows.append(
+            {
+                "source": e.source,
+                "status": e.status,
+                "descriptor": d.ref if d else None,
+                "id": d.id if d else None,
+                "path": d.path if d else None,
+                "previous": d.previous if d else None,
+                "simulation_success": sim.success if sim else None,
+                "error": e.error,
+            }
+        )
+    return {
+        "counts": {k: counts.get(k, 0) for k in ("new", "changed", "unchanged", "failed")},
+        "entries": rows,
+        "report": report_html,
+    }

@@ -1,0 +1,106 @@
+"""The flows run in-process against the session's Prefect harness: caching, naming, reports, artifacts."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from collections import Counter
+from pathlib import Path
+
+import pytest
+
+from flows.caching import results_dir
+from flows.process_recording import process_recording
+from flows.reprocess_archive import reprocess_archive
+from tasks.ingest import task as ingest_module
+from tasks.learn import task as learn_module
+from tasks.store import Store
+from tests.flows.recordings import write_door_recording
+from tests.flows.test_stage_tasks import CallCounter, count_calls
+
+
+@pytest.fixture
+def archive(tmp_path: Path) -> Path:
+    """Two door demonstrations (MCAP and rosbag2) without object models, so learning is quick."""
+    folder = tmp_path / "archive"
+    folder.mkdir()
+    write_door_recording(folder / "door-a.mcap", "mcap", 1.2, seed=1, with_model=False)
+    write_door_recording(folder / "nested" / "door-b", "rosbag2", 0.9, seed=2, with_model=False)
+    return folder
+
+
+@pytest.fixture
+def calls(monkeypatch: pytest.MonkeyPatch) -> CallCounter:
+    """Counts of real stage executions inside the task wrappers."""
+    counter: CallCounter = Counter()
+    count_calls(monkeypatch, ingest_module, "ingest_recording", counter)
+    count_calls(monkeypatch, learn_module, "learn_descriptor", counter)
+    return counter
+
+
+def test_unchanged_archive_does_no_stage_work_and_a_parameter_reruns_learning_only(
+    prefect_harness: None, archive: Path, tmp_path: Path, calls: CallCounter
+) -> None:
+    store = tmp_path / "store"
+    first = reprocess_archive(str(archive), store=str(store), workers=2)
+    assert dict(calls) == {"ingest_recording": 2, "learn_descriptor": 2}
+    assert first["counts"] == {"new": 2, "changed": 0, "unchanged": 0, "failed": 0}
+    assert [e["descriptor"] for e in first["entries"]] == ["door-a@v1", "nested-door-b@v1"]
+    assert first["report"] is not None and Path(first["report"]).is_file()
+
+    again = reprocess_archive(str(archive), store=str(store), workers=2)
+    assert dict(calls) == {"ingest_recording": 2, "learn_descriptor": 2}  # every stage a cache hit
+    assert again["counts"] == {"new": 0, "changed": 0, "unchanged": 2, "failed": 0}
+    assert Path(again["report"] or "").parent != Path(first["report"]).parent  # a report per run
+
+    changed = reprocess_archive(str(archive), store=str(store), params={"min_rotation_rad": 1.0}, workers=1)
+    assert dict(calls) == {"ingest_recording": 2, "learn_descriptor": 4}  # ingest cached, learning re-ran
+    statuses = {Path(e["source"]).name: e["status"] for e in changed["entries"]}
+    # the 0.9 rad door is now below the smallest rotation kept: its chain changes, the 1.2 rad one does not
+    assert statuses == {"door-a.mcap": "unchanged", "door-b": "changed"}
+    assert [v.version for v in Store(store).versions("nested-door-b")] == [1, 2]
+
+
+def test_process_recording_names_by_meta_and_leaves_artifacts(prefect_harness: None, tmp_path: Path) -> None:
+    from prefect.client.orchestration import get_client
+
+    source = write_door_recording(tmp_path / "demo.bag", "bag", 1.1, with_model=False)
+    store = tmp_path / "store"
+    summary = process_recording(str(source), store=str(store))
+    (entry,) = summary["entries"]
+    assert entry["descriptor"] == "open-door@v1"  # <action>-<object> from /demo/meta
+    desc = Store(store).load("open-door@latest")
+    assert [p.kind for p in desc.chain] == ["rotation"]
+    assert abs(desc.chain[0].extent - 1.1) < 0.05
+    with get_client(sync_client=True) as client:
+        md = client.read_latest_artifacts()
+    by_key = {a.key: a for a in md}
+    assert "open-door@v1" in str(by_key["pbd-run-summary"].data)
+    report = Path(summary["report"] or "")
+    assert report.is_file()
+    assert f"({report.resolve().as_uri()})" in str(by_key["pbd-report"].data)
+
+
+def test_an_unknown_parameter_fails_the_recording_not_the_run(
+    prefect_harness: None, archive: Path, tmp_path: Path
+) -> None:
+    summary = reprocess_archive(str(archive), store=str(tmp_path / "store"), params={"no_such": 1}, report=False)
+    assert summary["counts"]["failed"] == 2
+    assert all("unknown learning parameter(s) no_such" in (e["error"] or "") for e in summary["entries"])
+
+
+def test_cache_survives_a_new_process_and_prefect_home(prefect_harness: None, archive: Path, tmp_path: Path) -> None:
+    store = tmp_path / "store"
+    reprocess_archive(str(archive), store=str(store), report=False)
+    before = {p.name: p.stat().st_mtime_ns for p in results_dir(store).iterdir()}
+    env = {k: v for k, v in os.environ.items() if not k.startswith("PREFECT_")}
+    env["PREFECT_HOME"] = str(tmp_path / "another-prefect-home")
+    cmd = [sys.executable, "-m", "tasks.cli", "archive", str(archive), "--store", str(store), "--json", "--no-report"]
+    out = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=240, check=False)
+    assert out.returncode == 0, out.stderr[-2000:]
+    summary = json.loads(out.stdout)
+    assert summary["counts"]["unchanged"] == 2
+    after = {p.name: p.stat().st_mtime_ns for p in results_dir(store).iterdir()}
+    assert after == before  # no stage ran: no result record was written or rewritten
