@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import errno
 import hashlib
+import importlib.util
 import sqlite3
 from collections.abc import Mapping
 from pathlib import Path
@@ -57,8 +58,10 @@ def stage_key(stage: str, modules: tuple[str, ...], refs: Mapping[str, Any], par
     """Cache key of one stage run: ``<stage>-<32 hex>`` over the code version, input ids and parameters.
 
     ``refs`` holds content ids (strings) of the inputs, ``params`` the stage's parameters (JSON values).
+    A module that is not there (a stage not built yet) is left out of the code version.
     """
-    body = {"stage": stage, "code": code_version(*modules), "refs": dict(refs), "params": dict(params)}
+    present = tuple(m for m in modules if importlib.util.find_spec(m) is not None)
+    body = {"stage": stage, "code": code_version(*present), "refs": dict(refs), "params": dict(params)}
     digest = hashlib.sha256(canonical_json(body).encode()).hexdigest()[:32]
     return f"{stage}-{digest}"
 

@@ -1,4 +1,4 @@
-"""The per-recording chain of stage tasks, shared by the flows: ingest → learn → store → simulate → diff.
+"""The per-recording chain of stage tasks, shared by the flows: ingest → learn → store → simulate.
 
 ``submit_chain`` submits the tasks of one recording to the flow's task runner, each taking its upstream's
 future, so recordings proceed independently; ``collect`` waits for them and summarises the outcome. A failed
@@ -22,16 +22,19 @@ from flows.progress import notify
 from tasks.ingest.task import ingest_task
 from tasks.learn.task import learn_task, store_descriptor_task
 from tasks.report.refs import DescriptorRef, EntryResult
+from tasks.simulate.task import simulate_task
 
 
 @dataclass(frozen=True)
 class ChainSettings:
-    """What every recording of a run shares: the store, the learning parameters and the seed."""
+    """What every recording of a run shares: the store, the learning parameters, the grasp planner's seed,
+    a fixed descriptor name, and the seed of the randomised scene instance to simulate on (None: nominal)."""
 
     store_root: str
     params: dict[str, Any] = field(default_factory=dict)
     seed: int = 0
     name: str | None = None
+    scene_seed: int | None = None
 
 
 @dataclass(frozen=True)
@@ -54,10 +57,11 @@ class StageTasks:
         self.ingest = on_store(ingest_task, store_root)
         self.learn = on_store(learn_task, store_root)
         self.store: Task[..., DescriptorRef] = store_descriptor_task
+        self.simulate = on_store(simulate_task, store_root)
 
 
 def submit_chain(tasks: StageTasks, source: Path, settings: ChainSettings, name: str | None = None) -> Chain:
-    """Submit ingest → learn (segment, fit, grasp) → store for one recording; returns the futures.
+    """Submit ingest → learn (segment, fit, grasp) → store → simulate for one recording; returns the futures.
 
     ``name`` names the descriptor (default: ``settings.name``, else learning's ``<action>-<object>``).
     """
@@ -65,7 +69,8 @@ def submit_chain(tasks: StageTasks, source: Path, settings: ChainSettings, name:
     ingested = tasks.ingest.submit(str(source), root)
     learned = tasks.learn.submit(root, ingested, settings.params, name=name or settings.name, seed=settings.seed)
     stored = tasks.store.submit(root, learned)
-    return Chain(source, {"ingest": ingested, "learn": learned, "store": stored})
+    simulated = tasks.simulate.submit(root, stored, seed=settings.scene_seed)
+    return Chain(source, {"ingest": ingested, "learn": learned, "store": stored, "simulate": simulated})
 
 
 def collect(chain: Chain) -> EntryResult:

@@ -32,7 +32,8 @@ def summarise(entries: Sequence[EntryResult], report_html: str | None) -> RunSum
                 "id": d.id if d else None,
                 "path": d.path if d else None,
                 "previous": d.previous if d else None,
-                "simulation_success": sim.success if sim else None,
+                "simulation_success": sim.success if sim and sim.skipped is None else None,
+                "simulation_skipped": sim.skipped if sim else None,
                 "error": e.error,
             }
         )

@@ -16,6 +16,7 @@ from flows.process_recording import process_recording
 from flows.reprocess_archive import reprocess_archive
 from tasks.ingest import task as ingest_module
 from tasks.learn import task as learn_module
+from tasks.simulate import task as simulate_module
 from tasks.store import Store
 from tests.flows.recordings import write_door_recording
 from tests.flows.test_stage_tasks import CallCounter, count_calls
@@ -37,6 +38,7 @@ def calls(monkeypatch: pytest.MonkeyPatch) -> CallCounter:
     counter: CallCounter = Counter()
     count_calls(monkeypatch, ingest_module, "ingest_recording", counter)
     count_calls(monkeypatch, learn_module, "learn_descriptor", counter)
+    count_calls(monkeypatch, simulate_module, "simulate_descriptor", counter)
     return counter
 
 
@@ -45,18 +47,19 @@ def test_unchanged_archive_does_no_stage_work_and_a_parameter_reruns_learning_on
 ) -> None:
     store = tmp_path / "store"
     first = reprocess_archive(str(archive), store=str(store), workers=2)
-    assert dict(calls) == {"ingest_recording": 2, "learn_descriptor": 2}
+    assert dict(calls) == {"ingest_recording": 2, "learn_descriptor": 2, "simulate_descriptor": 2}
     assert first["counts"] == {"new": 2, "changed": 0, "unchanged": 0, "failed": 0}
     assert [e["descriptor"] for e in first["entries"]] == ["door-a@v1", "nested-door-b@v1"]
     assert first["report"] is not None and Path(first["report"]).is_file()
 
     again = reprocess_archive(str(archive), store=str(store), workers=2)
-    assert dict(calls) == {"ingest_recording": 2, "learn_descriptor": 2}  # every stage a cache hit
+    assert dict(calls) == {"ingest_recording": 2, "learn_descriptor": 2, "simulate_descriptor": 2}  # all cached
     assert again["counts"] == {"new": 0, "changed": 0, "unchanged": 2, "failed": 0}
     assert Path(again["report"] or "").parent != Path(first["report"]).parent  # a report per run
 
     changed = reprocess_archive(str(archive), store=str(store), params={"min_rotation_rad": 1.0}, workers=1)
-    assert dict(calls) == {"ingest_recording": 2, "learn_descriptor": 4}  # ingest cached, learning re-ran
+    # ingest cached, learning re-ran, only the descriptor that changed is simulated again
+    assert dict(calls) == {"ingest_recording": 2, "learn_descriptor": 4, "simulate_descriptor": 3}
     statuses = {Path(e["source"]).name: e["status"] for e in changed["entries"]}
     # the 0.9 rad door is now below the smallest rotation kept: its chain changes, the 1.2 rad one does not
     assert statuses == {"door-a.mcap": "unchanged", "door-b": "changed"}

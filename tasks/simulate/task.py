@@ -1,0 +1,66 @@
+"""Prefect wrapper of simulation (``tasks.simulate.api.simulate_descriptor``): a cached task over references.
+
+The cache key is the descriptor's content id, the scene, the scene seed, the grasp mode and the code version
+of the simulation, scene and grasp modules. A descriptor whose object has no built-in scene is not executed
+(``SimulationRef.skipped`` says why), which is not an error of the recording.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from prefect import task
+from prefect.context import TaskRunContext
+
+from flows.caching import RETRIES, RETRY_DELAY_S, retry_on_transient_io, stage_key
+from tasks.errors import SceneError
+from tasks.report.refs import DescriptorRef, SimulationRef
+from tasks.simulate.api import simulate_descriptor
+from tasks.store import Store
+
+SIMULATE_MODULES = ("tasks.simulate", "tasks.scenes", "tasks.grasp", "schemas")
+"""Modules whose source is the simulation stage's code version."""
+
+
+def simulate_cache_key(context: TaskRunContext, parameters: dict[str, Any]) -> str:
+    """Cache key of a simulation: descriptor id, scene, seed, grasp mode, code version."""
+    del context
+    descriptor: DescriptorRef = parameters["descriptor"]
+    params = {k: parameters.get(k) for k in ("scene", "seed", "grasp_mode")}
+    return stage_key("simulate", SIMULATE_MODULES, {"descriptor": descriptor.id}, params)
+
+
+@task(
+    name="simulate",
+    cache_key_fn=simulate_cache_key,
+    persist_result=True,
+    retries=RETRIES,
+    retry_delay_seconds=RETRY_DELAY_S,
+    retry_condition_fn=retry_on_transient_io,
+)
+def simulate_task(
+    store_root: str,
+    descriptor: DescriptorRef,
+    scene: str | None = None,
+    seed: int | None = None,
+    grasp_mode: str = "constraint",
+) -> SimulationRef:
+    """Execute a stored descriptor on ``scene`` (default: the built-in scene named like its object)."""
+    desc = Store(store_root).load(descriptor.path)
+    rng = np.random.default_rng(seed) if seed is not None else None
+    try:
+        result = simulate_descriptor(desc, scene=scene, rng=rng, grasp_mode=grasp_mode)  # type: ignore[arg-type]
+    except SceneError as err:
+        return SimulationRef(desc.id, scene or desc.object.name, False, (), (), skipped=str(err))
+    prims = result.primitives
+    detail = "; ".join(result.notes)
+    return SimulationRef(
+        descriptor_id=desc.id,
+        scene=result.scene,
+        success=result.success,
+        achieved=tuple(float(p.achieved) for p in prims),
+        target=tuple(float(p.target) for p in prims),
+        joints=tuple(p.joint for p in prims),
+        detail=detail,
+    )
