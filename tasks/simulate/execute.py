@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Literal
 
@@ -355,9 +355,10 @@ def execute(
         msg = f"descriptor {desc.name}: has no grasp (plan one first), nothing to hold the object with"
         raise SimulationError(msg)
     wall0 = time.perf_counter()
+    cpu0 = time.process_time()
     run = _Run(setup, frames_dir)
     try:
-        return _execute(run, desc, grasp_mode, wall0)
+        return replace(_execute(run, desc, grasp_mode, wall0), cpu_time_s=time.process_time() - cpu0)
     finally:
         run.close()
 
@@ -393,6 +394,7 @@ def _execute(run: _Run, desc: Descriptor, grasp_mode: GraspMode, wall0: float) -
     # Pre-grasp: arm at the first key pose, hand open at the grasp's spread.
     target_dofs = barrett.dofs_from_eigengrasps(*desc.grasp.eigengrasps)
     open_dofs = np.array([target_dofs[0], 0.0, 0.0, 0.0])
+    loop0 = time.perf_counter()
     run.q = placement.q_path[0].copy()
     rb.set_arm(run.robot, run.q)
     rb.set_hand(run.robot, open_dofs)
@@ -487,6 +489,7 @@ def _execute(run: _Run, desc: Descriptor, grasp_mode: GraspMode, wall0: float) -
             float(placement.base_quat[3]),
         ),
         grasp_mode=grasp_mode,
+        loop_wall_time_s=time.perf_counter() - loop0,
         frames=tuple(run.frames),
         notes=tuple(notes),
     )

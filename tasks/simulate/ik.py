@@ -85,7 +85,7 @@ def solve_ik(
             jointRanges=ranges,
             restPoses=[*q.tolist(), *hand_now],
             maxNumIterations=iterations,
-            residualThreshold=1e-5,
+            residualThreshold=1e-4,
             physicsClientId=robot.client,
         )
         q = np.clip(np.array(out[: len(ARM_JOINTS)], dtype=np.float64), ARM_LOWER, ARM_UPPER)

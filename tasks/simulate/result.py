@@ -60,8 +60,10 @@ class PrimitiveResult:
 @dataclass(frozen=True)
 class SimulationResult:
     """A whole execution: per-primitive results, whether the grasp closed on the object, whether contact was
-    kept, overall ``success``, simulated and wall-clock seconds, base placement (world, metres, [x,y,z,w]),
-    ``grasp_mode`` ("constraint" or "friction"), key-frame PNG paths and notes."""
+        kept, overall ``success``, simulated and wall-clock seconds, base placement (world, metres, [x,y,z,w]),
+        ``grasp_mode`` ("constraint" or "friction"), the wall time of the physics loop alone (pre-grasp to the end,
+        without loading and base placement), the process CPU time of the whole execution (a shared machine's load
+    inflates wall time, not CPU time), key-frame PNG paths and notes."""
 
     descriptor_id: str
     scene: str
@@ -75,6 +77,8 @@ class SimulationResult:
     base_position: tuple[float, float, float]
     base_quat: tuple[float, float, float, float]
     grasp_mode: Literal["constraint", "friction"]
+    loop_wall_time_s: float = 0.0
+    cpu_time_s: float = 0.0
     frames: tuple[str, ...] = ()
     notes: tuple[str, ...] = field(default_factory=tuple)
 
@@ -95,6 +99,8 @@ class SimulationResult:
             "grasp_mode": self.grasp_mode,
             "sim_time_s": self.sim_time_s,
             "wall_time_s": self.wall_time_s,
+            "loop_wall_time_s": self.loop_wall_time_s,
+            "cpu_time_s": self.cpu_time_s,
             "real_time_factor": self.real_time_factor,
             "base": {"position": list(self.base_position), "orientation": list(self.base_quat)},
             "primitives": [p.to_dict() for p in self.primitives],

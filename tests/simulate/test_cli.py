@@ -42,6 +42,8 @@ def test_json_output_shape(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
         "grasp_mode",
         "sim_time_s",
         "wall_time_s",
+        "loop_wall_time_s",
+        "cpu_time_s",
         "real_time_factor",
         "base",
         "primitives",
