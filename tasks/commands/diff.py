@@ -1,17 +1,30 @@
-"""``pbd diff``: not built yet (issue 4)."""
+"""``pbd diff A B [--json]``: what changed between two descriptors (exit 0 same, 1 different, 2 bad input)."""
 
 from __future__ import annotations
 
 import argparse
-
-from tasks.errors import NotBuiltError
+import json
+import sys
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of ``pbd diff`` (none until it is built)."""
-    parser.add_argument("rest", nargs=argparse.REMAINDER, help=argparse.SUPPRESS)
+    """Arguments of ``pbd diff``."""
+    parser.add_argument("a", metavar="A", help="descriptor: file, content id (8+ hex) or name@vN / name@latest")
+    parser.add_argument("b", metavar="B", help="descriptor to compare with A")
+    parser.add_argument("--json", action="store_true", help="print the diff as JSON on stdout")
 
 
-def run(args: argparse.Namespace) -> int:  # noqa: ARG001 - the stub ignores its arguments
-    """Refuse cleanly: this command is not built yet."""
-    raise NotBuiltError("diff", 4)
+def run(args: argparse.Namespace) -> int:
+    """Resolve both descriptors, compare, print; 0 when the same, 1 when different."""
+    from tasks.diff.core import diff_descriptors, format_diff  # noqa: PLC0415
+    from tasks.store import Store, resolve_store_root  # noqa: PLC0415
+
+    store = Store(resolve_store_root(args.store))
+    a = store.load(args.a)
+    b = store.load(args.b)
+    d = diff_descriptors(a, b)
+    if args.json:
+        sys.stdout.write(json.dumps(d.to_dict(), indent=2, sort_keys=True) + "\n")
+    else:
+        sys.stdout.write("\n".join(format_diff(d)) + "\n")
+    return 0 if d.same else 1

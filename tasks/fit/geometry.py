@@ -42,7 +42,7 @@ def angle_between_axes(a: Vector3, b: Vector3, *, signed: bool = True) -> float:
     return float(np.arccos(np.clip(c, -1.0, 1.0)))
 
 
-def net_change(values: FloatArray, k: int = 3) -> float:
-    """End minus start of a sequence, each averaged over ``k`` samples (robust to single-sample noise)."""
+def net_change(values: FloatArray, k: int = 1) -> float:
+    """End minus start of a sequence, each averaged over ``k`` samples (k > 1 trades end bias for noise)."""
     k = max(1, min(k, len(values) // 4 or 1))
     return float(np.mean(values[-k:]) - np.mean(values[:k]))

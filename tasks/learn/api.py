@@ -17,6 +17,7 @@ from schemas.descriptor import Descriptor, Grasp, ObjectRef, Primitive
 from tasks.arrays import Points
 from tasks.errors import FitError, GraspError
 from tasks.learn.chain import (
+    HAND_ONLY,
     SegmentFit,
     drop_small,
     fit_span,
@@ -93,7 +94,7 @@ def learn_chain(rec: RecordingData, params: LearnParams, rng: np.random.Generato
     chain = tuple(_primitive(f) for f in fits if f.kind in ("rotation", "translation"))
     warnings = list(prep.warnings)
     for f in fits:
-        if f.kind == "undefined":
+        if f.kind == "undefined" and not f.note.startswith(HAND_ONLY):
             warnings.append(
                 f"t={f.t_start:.3f}..{f.t_end:.3f} s: undefined motion dropped ({f.note or 'no model fits'})"
             )

@@ -26,6 +26,9 @@ from tasks.learn.params import LearnParams
 from tasks.learn.prepare import MIN_SAMPLES, PreparedRecording
 from tasks.segment.tracks import Track, span_indices
 
+HAND_ONLY = "only hand markers move"
+"""Note of a reach or release segment (normal, dropped without a warning)."""
+
 
 @dataclass(frozen=True)
 class SegmentFit:
@@ -96,7 +99,7 @@ def fit_span(
         group = moving
     else:
         who = ", ".join(tr.name for tr in moving)
-        return SegmentFit("undefined", t0, t1, still_markers=still, note=f"only hand markers move ({who})")
+        return SegmentFit("undefined", t0, t1, still_markers=still, note=f"{HAND_ONLY} ({who})")
     group.sort(key=lambda tr: tr.name)
     pts = [_samples(tr, t0, t1)[1] for tr in group]
     names: tuple[str, ...] = tuple(tr.name for tr in group)

@@ -118,7 +118,8 @@ def make_demo(scene: str, rng: np.random.Generator, noise_m: float = 0.0005, hz:
 
     markers: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     for name, (p0, moved_by) in parts.items():
-        pts = np.array([(lambda rt: rt[0] @ np.asarray(p0, float) + rt[1])(pose_at(tt, moved_by)) for tt in times])
+        poses = [pose_at(tt, moved_by) for tt in times]
+        pts = np.array([r @ np.asarray(p0, float) + tr for r, tr in poses])
         markers[name] = (times, pts)
     g0 = np.asarray(grasp, float)
     far = g0 + np.array([0.25, -0.3, 0.15])
