@@ -161,7 +161,12 @@ def key_poses(
         for i in range(KEY_EVERY, len(wps) + KEY_EVERY - 1, KEY_EVERY):
             k = min(i, len(wps) - 1)
             state[joint] = start + match.sign * float(wps.progress[k])
-            keys.append(KeyPose(wps.positions[k], wps.quats[k], dict(state)))
+            foot = None
+            if prim.kind == "rotation" and prim.pos is not None:
+                axis_dir = np.asarray(prim.dir, dtype=np.float64) / np.linalg.norm(prim.dir)
+                rel = wps.positions[k] - np.asarray(prim.pos, dtype=np.float64)
+                foot = np.asarray(prim.pos, dtype=np.float64) + (rel @ axis_dir) * axis_dir
+            keys.append(KeyPose(wps.positions[k], wps.quats[k], dict(state), foot))
         p, q = wps.positions[-1], wps.quats[-1]
     return keys
 

@@ -31,6 +31,8 @@ SHOULDER_HEIGHT_M = 0.36
 """iiwa axis 2 above the base, metres."""
 MAX_REACH_M = 0.82 + 0.205
 """Shoulder to wrist (0.42 + 0.40 m) plus wrist to palm (0.126 m flange + 0.08 m palm): no key farther than this."""
+PART_CLEARANCE_M = 0.15
+"""The base must stay this far (horizontally) from the region a rotating part sweeps (axis foot to palm)."""
 PENETRATION_TOL_M = 0.005
 """Arm-scene penetration tolerated at a key pose, metres."""
 
@@ -43,6 +45,8 @@ class KeyPose:
     position: FloatArray
     quat: FloatArray
     scene_joints: dict[int, float]
+    axis_foot: FloatArray | None = None
+    """For a rotation: the point of the rotation axis nearest the palm (the part spans axis_foot..palm)."""
 
 
 @dataclass(frozen=True)
@@ -63,8 +67,8 @@ def candidate_bases(keys: Sequence[KeyPose], floor_z: float = 0.0) -> list[tuple
     horizontal = np.array([approach[0], approach[1], 0.0])
     behind = -horizontal / np.linalg.norm(horizontal) if np.linalg.norm(horizontal) > 1e-3 else np.array([-1.0, 0, 0])
     out: list[tuple[FloatArray, FloatArray]] = []
-    for height in HEIGHTS_M:
-        for radius in RADII_M:
+    for radius in RADII_M:
+        for height in HEIGHTS_M:
             for yaw in YAWS_DEG:
                 bearing = matrix_from_axis_angle([0.0, 0.0, 1.0], math.radians(yaw)) @ behind
                 base = centre + radius * bearing
@@ -73,6 +77,22 @@ def candidate_bases(keys: Sequence[KeyPose], floor_z: float = 0.0) -> list[tuple
                 quat = quat_from_matrix(matrix_from_axis_angle([0.0, 0.0, 1.0], facing))
                 out.append((base, quat))
     return out
+
+
+def _segment_distance_xy(point: FloatArray, a: FloatArray, b: FloatArray) -> float:
+    """Horizontal distance of ``point`` from the segment a..b (all projected on the xy plane)."""
+    p, a2, b2 = point[:2], a[:2], b[:2]
+    ab = b2 - a2
+    denom = float(ab @ ab)
+    t = 0.0 if denom < 1e-12 else min(1.0, max(0.0, float((p - a2) @ ab) / denom))
+    return float(np.linalg.norm(p - (a2 + t * ab)))
+
+
+def clear_of_parts(base: FloatArray, keys: Sequence[KeyPose]) -> bool:
+    """Whether the base stands clear of every rotating part's swept segment (``PART_CLEARANCE_M``)."""
+    return all(
+        _segment_distance_xy(base, k.axis_foot, k.position) >= PART_CLEARANCE_M for k in keys if k.axis_foot is not None
+    )
 
 
 def _penetrates(robot: Robot, scene_body: int) -> bool:
@@ -92,7 +112,7 @@ def reach_keys(robot: Robot, scene_body: int, keys: Sequence[KeyPose]) -> FloatA
     q = ARM_REST.copy()
     path = []
     for i, key in enumerate(keys):
-        sol = solve_ik(robot, key.position, key.quat, q, rounds=6 if i == 0 else 3, iterations=100 if i == 0 else 40)
+        sol = solve_ik(robot, key.position, key.quat, q, rounds=3, iterations=100 if i == 0 else 40)
         if not sol.ok:
             return None
         for joint, value in key.scene_joints.items():
@@ -121,6 +141,8 @@ def place_base(robot: Robot, scene_body: int, keys: Sequence[KeyPose], floor_z: 
         for tried, (base, quat) in enumerate(cands, start=1):
             shoulder = base + np.array([0.0, 0.0, SHOULDER_HEIGHT_M])
             if max(float(np.linalg.norm(k.position - shoulder)) for k in keys) > MAX_REACH_M:
+                continue
+            if not clear_of_parts(base, keys):
                 continue
             pb.resetBasePositionAndOrientation(robot.body, base.tolist(), quat.tolist(), physicsClientId=robot.client)
             q_path = reach_keys(robot, scene_body, keys)
