@@ -121,10 +121,12 @@ def _markers_table(chunks: list[MarkerChunk]) -> Any:
         xyz = np.concatenate([c.xyz for c in merged[name]]).reshape(-1, 3)
         keep = np.isfinite(xyz).all(axis=1)
         st, xyz = st[keep], xyz[keep]
-        order = np.argsort(st, kind="stable")
+        if len(st) > 1 and not bool(np.all(st[1:] >= st[:-1])):
+            order = np.argsort(st, kind="stable")
+            st, xyz = st[order], xyz[order]
         idx_parts.append(np.full(len(st), k, dtype=np.int32))
-        stamp_parts.append(st[order])
-        xyz_parts.append(xyz[order])
+        stamp_parts.append(st)
+        xyz_parts.append(xyz)
     if names:
         idx = np.concatenate(idx_parts)
         stamps = np.concatenate(stamp_parts)

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from tasks.ingest.mcap_stream import Batch
+from tasks.ingest.mcap_stream import Batch, gather_bytes
 
 IntArray = npt.NDArray[np.int64]
 F64Array = npt.NDArray[np.float64]
@@ -52,23 +52,8 @@ class BulkResult:
 
 
 def _gather(arr: npt.NDArray[np.uint8], offsets: IntArray, nbytes: int) -> npt.NDArray[np.uint8]:
-    """(n, nbytes) bytes starting at each offset; a strided view when the offsets are evenly spaced."""
-    n = len(offsets)
-    if n == 0:
-        return np.zeros((0, nbytes), dtype=np.uint8)
-    if n > 1:
-        step = np.diff(offsets)
-        stride = int(step[0])
-        if (
-            stride >= nbytes
-            and bool(np.all(step == stride))
-            and int(offsets[0]) + stride * (n - 1) + nbytes <= len(arr)
-        ):
-            start = int(offsets[0])
-            view = np.lib.stride_tricks.as_strided(arr[start:], shape=(n, nbytes), strides=(stride, 1))
-            return np.ascontiguousarray(view)
-    out: npt.NDArray[np.uint8] = arr[offsets[:, None] + np.arange(nbytes)]
-    return out
+    """(n, nbytes) bytes starting at each offset (one memcpy per row)."""
+    return gather_bytes(arr, offsets, nbytes)
 
 
 def _u32(arr: npt.NDArray[np.uint8], offsets: IntArray) -> IntArray:
@@ -105,8 +90,9 @@ def bulk_decode(batch: Batch, msgtype: str, encoding: str) -> BulkResult:
     lengths = batch.lengths[cand]
     # group by (payload length, frame id length): each group shares one layout
     key = lengths * (1 << 20) + np.minimum(slen, (1 << 20) - 1)
-    for k in np.unique(key).tolist():
-        sel = np.flatnonzero(key == k)
+    uniform = len(key) > 0 and int(key.min()) == int(key.max())
+    for k in [int(key[0])] if uniform else np.unique(key).tolist():
+        sel = np.arange(len(key)) if uniform else np.flatnonzero(key == k)
         L = int(lengths[sel[0]])
         s = int(slen[sel[0]])
         g_idx, g_off = cand[sel], off[sel]

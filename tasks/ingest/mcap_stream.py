@@ -168,10 +168,25 @@ def _decompress(compression: str, data: bytes, size: int, partial: bool) -> byte
 
 
 class _Collector:
-    """Accumulates message locations per channel for one buffer, then emits batches."""
+    """Accumulates message locations per buffer (chunk or file); ``finish`` emits one batch per channel.
+
+    All buffers are joined into one at the end, so a channel's messages form a single batch however many
+    chunks they came from (the bulk decoder then runs once per topic, not once per chunk).
+    """
 
     def __init__(self, content: McapContent) -> None:
         self.content = content
+        self.parts: list[tuple[bytes, IntArray, IntArray, IntArray, IntArray]] = []
+        self.top: tuple[bytes, list[int], list[int]] | None = None
+        self.count = 0
+        self.record_bytes = 0
+
+    def add_top(self, data: bytes, pos: int, length: int) -> None:
+        """A message record outside any chunk (at ``pos`` of the file ``data``)."""
+        if self.top is None:
+            self.top = (data, [], [])
+        self.top[1].append(pos)
+        self.top[2].append(length)
 
     def add_walked(self, buf: bytes, rec_offsets: list[int], rec_lengths: list[int]) -> None:
         """Message records found by walking: read their fixed fields in bulk."""
@@ -184,33 +199,50 @@ class _Collector:
         arr = np.frombuffer(buf, dtype=np.uint8)
         chan = _gather_uint(arr, rec_off + 9, 2).astype(np.int64)
         log = _gather_uint(arr, rec_off + 15, 8).astype(np.int64)
-        data_off = rec_off + _MSG_HEAD
-        data_len = rec_len - _MSG.size
-        for cid in np.unique(chan).tolist():
+        self.parts.append((buf, chan, log, rec_off + _MSG_HEAD, rec_len - _MSG.size))
+        self.count += len(rec_off)
+        self.record_bytes += int(rec_len.sum()) + 9 * len(rec_off)
+
+    def finish(self) -> None:
+        """Join the buffers and put one batch per channel into the content."""
+        if self.top is not None:
+            data, offs, lens = self.top
+            self.top = None
+            self.add_walked(data, offs, lens)
+        if not self.parts:
+            return
+        bufs: list[bytes] = []
+        base: dict[int, int] = {}
+        total = 0
+        for buf, *_ in self.parts:
+            if id(buf) not in base:
+                base[id(buf)] = total
+                bufs.append(buf)
+                total += len(buf)
+        big = bufs[0] if len(bufs) == 1 else b"".join(bufs)
+        chan = np.concatenate([p[1] for p in self.parts])
+        log = np.concatenate([p[2] for p in self.parts])
+        off = np.concatenate([p[3] + base[id(p[0])] for p in self.parts])
+        length = np.concatenate([p[4] for p in self.parts])
+        self.parts = []
+        for cid in np.flatnonzero(np.bincount(chan)).tolist():  # channel ids are uint16: no sort needed
             idx = np.flatnonzero(chan == cid)
-            self.content.batches.setdefault(int(cid), []).append(Batch(buf, data_off[idx], data_len[idx], log[idx]))
+            self.content.batches.setdefault(int(cid), []).append(Batch(big, off[idx], length[idx], log[idx]))
 
 
-def _gather_bytes(arr: npt.NDArray[np.uint8], offsets: IntArray, nbytes: int) -> npt.NDArray[np.uint8]:
-    """(n, nbytes) bytes starting at each offset; a strided copy when the offsets are evenly spaced."""
+def gather_bytes(arr: npt.NDArray[np.uint8], offsets: IntArray, nbytes: int) -> npt.NDArray[np.uint8]:
+    """(n, nbytes) bytes starting at each offset of ``arr`` (one memcpy per row, through a void view)."""
     n = len(offsets)
-    if n > 1:
-        step = np.diff(offsets)
-        stride = int(step[0])
-        if (
-            stride >= nbytes
-            and bool(np.all(step == stride))
-            and int(offsets[0]) + stride * (n - 1) + nbytes <= len(arr)
-        ):
-            view = np.lib.stride_tricks.as_strided(arr[int(offsets[0]) :], shape=(n, nbytes), strides=(stride, 1))
-            return np.ascontiguousarray(view)
-    out: npt.NDArray[np.uint8] = arr[offsets[:, None] + np.arange(nbytes)]
-    return out
+    if n == 0 or nbytes == 0:
+        return np.zeros((n, nbytes), dtype=np.uint8)
+    windows = np.ndarray((len(arr) - nbytes + 1,), dtype=np.dtype((np.void, nbytes)), buffer=arr, strides=(1,))
+    rows: npt.NDArray[np.uint8] = windows[offsets].view(np.uint8).reshape(n, nbytes)
+    return rows
 
 
 def _gather_uint(arr: npt.NDArray[np.uint8], offsets: IntArray, size: int) -> npt.NDArray[np.uint64]:
     """Little-endian unsigned integers of ``size`` bytes at ``offsets`` of a byte array."""
-    cols = _gather_bytes(arr, offsets, size)
+    cols = gather_bytes(arr, offsets, size)
     dtype = {2: "<u2", 4: "<u4", 8: "<u8"}[size]
     return np.ascontiguousarray(cols).view(dtype).reshape(-1).astype(np.uint64)
 
@@ -303,11 +335,18 @@ def read_mcap(data: bytes, path: str, *, recover: bool = False) -> McapContent:
         raise RecordingError(path, "not a recording (no MCAP magic)")
     content = McapContent()
     collector = _Collector(content)
+    _read_records(data, path, recover, content, collector)
+    collector.finish()
+    return content
+
+
+def _read_records(data: bytes, path: str, recover: bool, content: McapContent, collector: _Collector) -> None:
+    """The record loop of ``read_mcap``; damage with ``recover`` is noted in ``content``."""
     size = len(data)
     pos = len(MAGIC)
     data_end = False  # after DataEnd only the summary follows: damage there loses no message
 
-    def damaged(err: RecordingError, at: int, lost: int = 0) -> McapContent:
+    def damaged(err: RecordingError, at: int, lost: int = 0) -> None:
         if not recover:
             raise err
         content.damage = str(err.what)
@@ -315,7 +354,6 @@ def read_mcap(data: bytes, path: str, *, recover: bool = False) -> McapContent:
         content.lost_bytes = size - at
         content.lost_messages = 0 if data_end else lost
         content.past_data = data_end
-        return content
 
     while True:
         if pos == size:
@@ -340,7 +378,7 @@ def read_mcap(data: bytes, path: str, *, recover: bool = False) -> McapContent:
             elif op == OP_FOOTER:
                 if data[body + length : body + length + 8] != MAGIC:
                     return damaged(TruncatedRecordingError(path, body + length, "end magic missing"), body + length)
-                return content
+                return None
             elif op == OP_SCHEMA:
                 s = _parse_schema(bytes(rec))
                 content.schemas.setdefault(s.id, s)
@@ -350,7 +388,7 @@ def read_mcap(data: bytes, path: str, *, recover: bool = False) -> McapContent:
             elif op == OP_MESSAGE:
                 if length < _MSG.size:
                     raise _CorruptError(f"message record at byte {pos} too short")
-                collector.add_walked(data, [pos], [length])
+                collector.add_top(data, pos, length)
             elif op == OP_CHUNK:
                 # message indexes follow the chunk: collect them first
                 nxt = body + length
@@ -424,8 +462,8 @@ def _salvage_chunk(data: bytes, at: int, content: McapContent, collector: _Colle
     Returns an estimate of the messages of this chunk that are lost (at least 1): the chunk's missing
     uncompressed bytes over the mean message record size seen so far.
     """
-    records = sum(int(b.lengths.sum()) + _MSG_HEAD * len(b) for bs in content.batches.values() for b in bs)
-    count = sum(len(b) for bs in content.batches.values() for b in bs)
+    records = collector.record_bytes
+    count = collector.count
     body = data[at + 9 :]
     try:
         usize, _crc, compression, rstart, _rlen = _chunk_header(body)
