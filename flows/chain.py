@@ -1,4 +1,5 @@
-"""The per-recording chain of stage tasks, shared by the flows: ingest → learn → store → simulate.
+"""The per-recording chain of stage tasks, shared by the flows: ingest → learn → store → simulate, and the
+diff against the previous version.
 
 ``submit_chain`` submits the tasks of one recording to the flow's task runner, each taking its upstream's
 future, so recordings proceed independently; ``collect`` waits for them and summarises the outcome. A failed
@@ -19,6 +20,7 @@ from prefect.futures import PrefectFuture, as_completed
 
 from flows.caching import on_store
 from flows.progress import notify
+from tasks.diff.task import diff_task
 from tasks.ingest.task import ingest_task
 from tasks.learn.task import learn_task, store_descriptor_task
 from tasks.report.refs import DescriptorRef, EntryResult
@@ -46,7 +48,7 @@ class Chain:
 
     @property
     def last(self) -> PrefectFuture[Any]:
-        """The final stage's future: done when the whole chain is."""
+        """The future that finishes last: the final stage's (``collect`` waits for every stage anyway)."""
         return list(self.futures.values())[-1]
 
 
@@ -58,10 +60,11 @@ class StageTasks:
         self.learn = on_store(learn_task, store_root)
         self.store: Task[..., DescriptorRef] = store_descriptor_task
         self.simulate = on_store(simulate_task, store_root)
+        self.diff = on_store(diff_task, store_root)
 
 
 def submit_chain(tasks: StageTasks, source: Path, settings: ChainSettings, name: str | None = None) -> Chain:
-    """Submit ingest → learn (segment, fit, grasp) → store → simulate for one recording; returns the futures.
+    """Submit ingest → learn (segment, fit, grasp) → store → simulate, diff for one recording; returns futures.
 
     ``name`` names the descriptor (default: ``settings.name``, else learning's ``<action>-<object>``).
     """
@@ -70,7 +73,15 @@ def submit_chain(tasks: StageTasks, source: Path, settings: ChainSettings, name:
     learned = tasks.learn.submit(root, ingested, settings.params, name=name or settings.name, seed=settings.seed)
     stored = tasks.store.submit(root, learned)
     simulated = tasks.simulate.submit(root, stored, seed=settings.scene_seed)
-    return Chain(source, {"ingest": ingested, "learn": learned, "store": stored, "simulate": simulated})
+    diffed = tasks.diff.submit(root, stored)
+    futures: dict[str, PrefectFuture[Any]] = {
+        "ingest": ingested,
+        "learn": learned,
+        "store": stored,
+        "simulate": simulated,
+        "diff": diffed,
+    }
+    return Chain(source, futures)
 
 
 def collect(chain: Chain) -> EntryResult:

@@ -34,6 +34,7 @@ def summarise(entries: Sequence[EntryResult], report_html: str | None) -> RunSum
                 "previous": d.previous if d else None,
                 "simulation_success": sim.success if sim and sim.skipped is None else None,
                 "simulation_skipped": sim.skipped if sim else None,
+                "diff": (e.diff or {}).get("lines"),
                 "error": e.error,
             }
         )

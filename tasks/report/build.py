@@ -167,7 +167,11 @@ def _diff_html(entry: EntryResult, folder: Path, stem: str) -> str:
     if changes:
         img = _save(plots.diff_figure(changes), folder / f"{stem}-diff.png")
         out.append(f"<img src='{img}'>")
-    out.append(f"<pre>{html.escape(json.dumps(entry.diff, indent=1, sort_keys=True))}</pre>")
+    lines = (entry.diff or {}).get("lines")
+    if isinstance(lines, list):
+        out.append(f"<pre>{html.escape(chr(10).join(str(x) for x in lines))}</pre>")
+    raw = html.escape(json.dumps(entry.diff, indent=1, sort_keys=True))
+    out.append(f"<details><summary>diff as JSON</summary><pre>{raw}</pre></details>")
     return "\n".join(out)
 
 
@@ -182,7 +186,7 @@ def _numeric_changes(diff: dict[str, Any]) -> list[tuple[str, float, float]]:
         offset = item.get("axis_offset_mm", item.get("offset_mm"))
         if angle is None and offset is None:
             continue
-        label = f"{item.get('index', i)}: {item.get('kind', '')}"
+        label = f"{item.get('index_b', item.get('index', i))}: {item.get('kind', '')}"
         out.append((label, float(angle or 0.0), float(offset or 0.0)))
     return out
 

@@ -47,5 +47,7 @@ def summary_markdown(title: str, entries: Sequence[EntryResult], report_html: Pa
             if e.descriptor is None:
                 continue
             lines.append(f"### {e.descriptor.previous} → {e.descriptor.ref}")
-            lines += ["", "```json", json.dumps(e.diff, indent=1, sort_keys=True) if e.diff else "{}", "```", ""]
+            words = (e.diff or {}).get("lines")
+            text = "\n".join(str(x) for x in words) if isinstance(words, list) else json.dumps(e.diff, indent=1)
+            lines += ["", "```", text, "```", ""]
     return "\n".join(lines) + "\n"

@@ -63,6 +63,8 @@ def test_unchanged_archive_does_no_stage_work_and_a_parameter_reruns_learning_on
     statuses = {Path(e["source"]).name: e["status"] for e in changed["entries"]}
     # the 0.9 rad door is now below the smallest rotation kept: its chain changes, the 1.2 rad one does not
     assert statuses == {"door-a.mcap": "unchanged", "door-b": "changed"}
+    diff = next(e["diff"] for e in changed["entries"] if e["status"] == "changed")
+    assert any(line.startswith("  removed primitive 0: rotation") for line in diff)
     assert [v.version for v in Store(store).versions("nested-door-b")] == [1, 2]
 
 

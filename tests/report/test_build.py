@@ -44,7 +44,10 @@ def _entry(store: Store, tmp_path: Path, extent: float) -> EntryResult:
         recording=RecordingRef(ing.recording_id, str(source)),
         descriptor=DescriptorRef(put.name, put.version, put.id, str(put.path), put.created),
         simulation=sim,
-        diff={"primitives": [{"index": 0, "kind": "rotation", "axis_angle_deg": 0.0, "extent_change": 0.1}]}
+        diff={
+            "changed": [{"index_a": 0, "index_b": 0, "kind": "rotation", "axis_angle_deg": 0.5, "axis_offset_mm": 2.0}],
+            "lines": ["open-door -> open-door: different", "  rotation 0->0: axis angle 0.500 deg, extent +0.1 rad"],
+        }
         if put.version > 1
         else None,
         extra={"chain": "rotation"},
@@ -65,6 +68,7 @@ def test_report_has_every_plot_and_the_axes_mcap(store: Store, tmp_path: Path) -
             assert f"src='{png.name}'" in page
     assert (paths.folder / "open-door-v2-diff.png").read_bytes()[:8] == PNG_MAGIC
     assert "open-door@v1 → open-door@v2" in paths.markdown
+    assert "rotation 0-&gt;0: axis angle 0.500 deg" in page
     assert "1 new, 1 changed, 0 unchanged, 0 failed" in paths.markdown
     assert len(paths.mcaps) == 2
     reader = make_reader(io.BytesIO(paths.mcaps[0].read_bytes()))
