@@ -80,16 +80,22 @@ def handle_on_plate(
 
 
 def palm_seed(
-    target: np.ndarray, approach: np.ndarray, gap: float, rng: np.random.Generator
+    target: np.ndarray, approach: np.ndarray, gap: float, rng: np.random.Generator, along: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
-    """A demonstrated palm pose ``gap`` m before ``target`` looking along ``approach``, random roll, ~10° tilt."""
+    """A demonstrated palm pose ``gap`` m before ``target`` looking along ``approach``, ~10° tilt noise; palm x
+    along ``along`` (fingers close across it, as a hand wrapping a handle; 15° roll noise), any roll when None."""
     z = approach / np.linalg.norm(approach)
-    helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    if along is None:
+        helper = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+        roll = rng.uniform(-math.pi, math.pi)
+    else:
+        helper = np.cross(z, along)
+        roll = rng.normal(0.0, math.radians(15.0))
     x = np.cross(helper, z)
     x /= np.linalg.norm(x)
     base = Rotation.from_matrix(np.stack([x, np.cross(z, x), z], axis=1))
     noise = Rotation.from_rotvec(rng.normal(0.0, math.radians(10.0), 3) * np.array([1, 1, 0]))
-    rot = base * Rotation.from_euler("z", rng.uniform(-math.pi, math.pi)) * noise
+    rot = base * Rotation.from_euler("z", roll) * noise
     return target - rot.apply([0, 0, 1]) * gap, rot.as_quat()
 
 
@@ -98,10 +104,10 @@ def paper_cases(rng: np.random.Generator) -> list[Case]:
     cases: list[Case] = []
     down = np.array([0.0, 0.0, -1.0])
     pts, c = handle_on_plate(0.012, 0.16, 0.04, True, rng)
-    pos, quat = palm_seed(c - np.array([0, 0.012, 0]), np.array([0.0, 1.0, 0.0]), 0.04, rng)
+    pos, quat = palm_seed(c - np.array([0, 0.012, 0]), np.array([0.0, 1.0, 0.0]), 0.04, rng, np.array([0, 0, 1.0]))
     cases.append(Case("microwave-handle", pts, pos, quat))
     pts, c = handle_on_plate(0.010, 0.12, 0.035, False, rng)
-    pos, quat = palm_seed(c - np.array([0, 0.010, 0]), np.array([0.0, 1.0, 0.0]), 0.04, rng)
+    pos, quat = palm_seed(c - np.array([0, 0.010, 0]), np.array([0.0, 1.0, 0.0]), 0.04, rng, np.array([1.0, 0, 0]))
     cases.append(Case("drawer-handle", pts, pos, quat))
     bottle = _cyl(0.035, 0.09, 3000, rng, Rotation.identity(), np.array([0.5, 0.0, 0.39]))
     cap = _cyl(0.016, 0.012, 600, rng, Rotation.identity(), np.array([0.5, 0.0, 0.492]))
@@ -128,6 +134,11 @@ def random_cases(count: int, rng: np.random.Generator) -> list[Case]:
             top = rng.random() < 0.5
             approach = np.array([0.0, 0.0, -1.0]) if top else np.array([0.0, 1.0, 0.0])
             face = centre + (np.array([0, 0, half[2]]) if top else np.array([0, -half[1], 0]))
+            along = (
+                (np.array([1.0, 0, 0]) if half[0] > half[1] else np.array([0, 1.0, 0]))
+                if top
+                else np.array([0, 0, 1.0])
+            )
             name = f"box {2000 * half[0]:.0f}x{2000 * half[1]:.0f}x{2000 * half[2]:.0f}mm"
         elif kind == "cylinder":
             r, hh = rng.uniform(0.015, 0.04), rng.uniform(0.04, 0.09)
@@ -136,6 +147,7 @@ def random_cases(count: int, rng: np.random.Generator) -> list[Case]:
             pts = _cyl(r, hh, 3000, rng, rot, centre)
             approach = np.array([0.0, 0.0, -1.0]) if lying else np.array([0.0, 1.0, 0.0])
             face = centre + (np.array([0, 0, r]) if lying else np.array([0, -r, 0]))
+            along = np.array([1.0, 0, 0]) if lying else np.array([0, 0, 1.0])
             name = f"cylinder r{1000 * r:.0f} h{2000 * hh:.0f}mm {'lying' if lying else 'upright'}"
         else:
             r, length, standoff = rng.uniform(0.008, 0.016), rng.uniform(0.10, 0.18), rng.uniform(0.03, 0.05)
@@ -143,8 +155,9 @@ def random_cases(count: int, rng: np.random.Generator) -> list[Case]:
             pts, c = handle_on_plate(r, length, standoff, vertical, rng)
             approach = np.array([0.0, 1.0, 0.0])
             face = c - np.array([0, r, 0])
+            along = np.array([0, 0, 1.0]) if vertical else np.array([1.0, 0, 0])
             name = f"handle r{1000 * r:.0f} l{1000 * length:.0f}mm {'vertical' if vertical else 'horizontal'}"
-        pos, quat = palm_seed(face, approach, rng.uniform(0.02, 0.06), rng)
+        pos, quat = palm_seed(face, approach, rng.uniform(0.02, 0.06), rng, along)
         cases.append(Case(name, pts, pos, quat))
     return cases
 
@@ -164,7 +177,7 @@ def baseline(model: ObjectModel, seed_pos: np.ndarray, seed_quat: np.ndarray) ->
         return Grasp(
             "barrett", (0.0, -4.0), tuple(seed_pos), tuple(seed_quat), {"epsilon": 0.0, "force_closure": False}
         )
-    pos, _, quality = out
+    pos, _, _, quality = out
     return Grasp(
         "barrett",
         (0.0, -4.0),

@@ -11,6 +11,8 @@ Frames (all metres, radians):
   end of the proximal link (link 56 mm to the tip). At spread 0, fingers 1 and 2 stand at y = +50 mm and close
   towards -y, opposite finger 3 at y = -50 mm which closes towards +y; at spread π/2 fingers 1 and 2 face each
   other across x.
+- The palm link's inertial frame is the palm frame, so pybullet's base pose (``resetBasePositionAndOrientation``,
+  ``getBasePositionAndOrientation``) is the palm frame's pose.
 - Proximal joints 0..2.44 rad (0 = finger straight along +z); distal joint = proximal / 3 + 40° (the BH8's
   coupling; URDF mimic joints are ignored by pybullet, so ``apply_dofs`` enforces it).
 

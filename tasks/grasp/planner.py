@@ -5,9 +5,10 @@ eigengrasp amplitudes a1, a2 in ±4, approach distance d in -30..200 mm (palm to
 axis, negative = past it), roll θ1 about the approach axis and tilt θ2 about the palm x axis, both
 within ±60° and both pivoting about the point where the seed's approach ray meets the object. Energy is the
 contact energy over the virtual contacts (``contact_energy``), vectorised with a KD-tree over the object points;
-states where the hand's surface samples enter the object are illegal. The lowest-energy distinct states are
-then tried in pybullet: approach up to 30 mm to contact, close the fingers until contact, epsilon and volume of
-the grasp wrench space. Force-closure grasps are ranked by closeness to the demonstrated palm pose.
+states where the hand's surface samples enter the object are illegal. The lowest-energy distinct states (in
+three spread ranges) and a few pre-grasps on the seed's approach line are then tried in pybullet: approach up
+to 30 mm to contact, close the fingers until contact, epsilon and volume of the grasp wrench space.
+Force-closure grasps (epsilon >= 0.05 first) are ranked by closeness to the demonstrated palm pose.
 """
 
 from __future__ import annotations
@@ -36,6 +37,15 @@ SPREAD_BINS = (0.0, 0.7, 2.0, 4.0)
 """Candidates are taken from each spread range (rad): fingers opposing the thumb, tripod, hook."""
 CHAIN_SPREADS = (-1.13, 0.0, 0.44, 2.0, -0.5, 1.2)
 """Start amplitude a1 of each annealing chain: spread 0, 1.13 (origin), π/2 and π, then in between."""
+LINE_SPREADS = (-1.13, 0.0)
+LINE_ROLLS_RAD = (0.0, math.radians(45.0), math.radians(-45.0))
+LINE_A2 = 0.0
+LINE_DISTANCE_M = 0.005
+"""Besides the annealed states, pre-grasps on the seed's approach line are tried (spread 0 and 1.13 rad,
+roll 0 and ±45°, palm 5 mm before the pivot, fingers at the eigengrasp origin and opened until free of the
+object): the contact energy favours curled fingers beside thin parts, these cover the demonstrator's approach."""
+PRESHAPE_OPENINGS_RAD = (0.0, 0.8)
+"""Each posture is tried as it is and, unless that gives a good force closure, with its fingers opened by 0.8 rad."""
 BACK_OFF_M = 0.02
 """A pre-grasp found in collision in pybullet is moved back along its approach axis by up to 20 mm."""
 
@@ -44,9 +54,9 @@ BACK_OFF_M = 0.02
 class PlannerParams:
     """Planner settings: annealing steps and chains, candidates tried in pybullet, ranges, friction, ranking."""
 
-    steps: int = 500
+    steps: int = 400
     chains: int = 4
-    candidates: int = 18
+    candidates: int = 12
     schedule: Schedule = field(default_factory=Schedule)
     distance_range_m: tuple[float, float] = (-0.03, 0.20)
     angle_limit_rad: float = math.radians(60.0)
@@ -142,6 +152,11 @@ def _select(trace: AnnealTrace, count: int, scale: FloatArray) -> list[int]:
     return chosen
 
 
+def _better(a: GraspCandidate, b: GraspCandidate) -> bool:
+    """Whether ``a`` beats ``b`` for the same annealed state: better tier, then larger epsilon."""
+    return (rank_tier(a.quality), -a.quality.epsilon) < (rank_tier(b.quality), -b.quality.epsilon)
+
+
 def rank_tier(quality: GraspQuality) -> int:
     """0: force closure with epsilon >= ``MIN_GOOD_EPSILON``; 1: weaker force closure; 2: no force closure."""
     if not quality.force_closure:
@@ -155,6 +170,31 @@ def closeness(rot: FloatArray, pos: Vector3, seed_rot: FloatArray, seed_pos: Vec
     return float(np.linalg.norm(pos - seed_pos)) / params.position_scale_m + angle / params.angle_scale_rad
 
 
+def _free_pregrasp(  # noqa: PLR0917 -- private helper
+    client_id: int, hand: int, obj: int, rot: FloatArray, pos: Vector3, quat: FloatArray, dofs: FloatArray
+) -> tuple[Vector3, FloatArray] | None:
+    """The nearest collision-free pre-grasp: back off along the approach axis in 4 mm steps (up to 20 mm) and
+    at each step try finger angles within 0.8 rad of the given ones, nearest first (0.1 rad steps, opening or
+    curling; the eigengrasp keeps the three fingers equal); None when nothing is free."""
+    approach = rot[:, 2]
+    start = float(dofs[1])
+    grid = np.arange(0.0, float(barrett.DOF_UPPER[1]) + 1e-9, 0.1)
+    angles = sorted(grid[np.abs(grid - start) <= 0.8], key=lambda a: (abs(a - start), a))
+    for back in np.arange(0.0, BACK_OFF_M + 1e-9, 0.004):
+        trial_pos = pos - back * approach
+        closing.set_pose(client_id, hand, trial_pos, quat)
+        barrett.apply_dofs(client_id, hand, dofs)
+        if closing.min_distance(client_id, hand, obj) >= 0.0:
+            return trial_pos, dofs.copy()
+        for angle in angles:
+            trial = dofs.copy()
+            trial[1:] = angle
+            barrett.apply_dofs(client_id, hand, trial)
+            if closing.min_distance(client_id, hand, obj) >= 0.0:
+                return trial_pos, trial
+    return None
+
+
 def evaluate_pose(  # noqa: PLR0917 -- pybullet ids, model, pose, posture, params
     client_id: int,
     hand: int,
@@ -164,29 +204,22 @@ def evaluate_pose(  # noqa: PLR0917 -- pybullet ids, model, pose, posture, param
     pos: Vector3,
     dofs: FloatArray,
     params: PlannerParams,
-) -> tuple[Vector3, FloatArray, GraspQuality] | None:
+) -> tuple[Vector3, FloatArray, FloatArray, GraspQuality] | None:
     """Approach, close and score one pre-grasp in pybullet; a pre-grasp in collision first opens its fingers,
-    then backs off up to 20 mm along the approach axis; None when it is still in collision."""
+    then backs off up to 20 mm along the approach axis; None when it is still in collision. Returns the palm
+    position after the approach, the pre-grasp DOFs used (4,), the closed joints (7,) and the quality."""
     quat = Rotation.from_matrix(rot).as_quat()
     closing.set_pose(client_id, hand, pos, quat)
     barrett.apply_dofs(client_id, hand, dofs)
-    approach = rot[:, 2]
-    dofs = dofs.copy()
-    while closing.min_distance(client_id, hand, obj) < 0.0 and np.any(dofs[1:] > 0.0):
-        dofs[1:] = np.maximum(dofs[1:] - 0.1, 0.0)
-        barrett.apply_dofs(client_id, hand, dofs)
-    backed = 0.0
-    while closing.min_distance(client_id, hand, obj) < 0.0:
-        if backed >= BACK_OFF_M:
-            return None
-        backed += 0.002
-        pos = pos - 0.002 * approach
-        closing.set_pose(client_id, hand, pos, quat)
+    free = _free_pregrasp(client_id, hand, obj, rot, pos, quat, dofs)
+    if free is None:
+        return None
+    pos, dofs = free
     final_pos = closing.approach_to_contact(client_id, hand, obj, pos, quat, params.approach_max_m)
     closed = closing.close_fingers(client_id, hand, obj, dofs)
     contacts = closing.contacts_of(client_id, hand, obj)
     quality = grasp_quality(contacts.positions, contacts.normals_in, model.center, model.radius, params.mu)
-    return final_pos, closed, quality
+    return final_pos, dofs, closed, quality
 
 
 def search(
@@ -222,6 +255,9 @@ def search(
         sub = AnnealTrace(pooled.states[sel], pooled.energies[sel], 0)
         picks += [(sub.states[i], float(sub.energies[i])) for i in _select(sub, per_bin, upper - lower)]
 
+    for a1, roll in itertools.product(LINE_SPREADS, LINE_ROLLS_RAD):
+        x = np.array([a1, LINE_A2, LINE_DISTANCE_M, roll, 0.0])
+        picks.append((x, energy(x)))
     client = pb.connect(pb.DIRECT)
     try:
         obj = load_object(client, model)
@@ -229,14 +265,25 @@ def search(
         out: list[GraspCandidate] = []
         for x, e in picks:
             rot, pos = space.pose(x)
-            dofs = barrett.dofs_from_eigengrasps(float(x[0]), float(x[1]))
-            result = evaluate_pose(client, hand, obj, model, rot, pos, dofs, prm)
-            if result is None:
-                continue
-            final_pos, closed, quality = result
-            cost = closeness(rot, final_pos, seed_rot, seed_pos, prm)
             quat = Rotation.from_matrix(rot).as_quat()
-            out.append(GraspCandidate(x, final_pos, quat, closed, quality, e, cost))
+            best: GraspCandidate | None = None
+            for opening in PRESHAPE_OPENINGS_RAD:
+                dofs = barrett.dofs_from_eigengrasps(float(x[0]), float(x[1]))
+                dofs[1:] = np.maximum(dofs[1:] - opening, 0.0)
+                result = evaluate_pose(client, hand, obj, model, rot, pos, dofs, prm)
+                if result is None:
+                    continue
+                final_pos, pre_dofs, closed, quality = result
+                state = x.copy()
+                state[1] = barrett.eigengrasps_from_dofs(pre_dofs)[1]
+                cost = closeness(rot, final_pos, seed_rot, seed_pos, prm)
+                cand = GraspCandidate(state, final_pos, quat, closed, quality, e, cost)
+                if best is None or _better(cand, best):
+                    best = cand
+                if rank_tier(best.quality) == 0:
+                    break
+            if best is not None:
+                out.append(best)
     finally:
         pb.disconnect(client)
     out.sort(key=lambda c: (rank_tier(c.quality), c.closeness))
