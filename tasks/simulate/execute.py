@@ -50,11 +50,11 @@ from tasks.simulate.waypoints import (
     matrix_from_axis_angle,
 )
 
-TIME_STEP_S = 1.0 / 120.0
-"""Physics step, seconds (half pybullet's default rate: the door test's outcomes are unchanged, at twice the speed)."""
-SOLVER_ITERATIONS = 20
-"""Constraint solver iterations per step (pybullet's default is 50; 20 gave the same outcomes on the test door)."""
-STEPS_PER_WAYPOINT = 3
+TIME_STEP_S = 1.0 / 240.0
+"""Physics step, seconds (pybullet's default; at 1/120 s a light bottle cap slipped out of the grasp)."""
+SOLVER_ITERATIONS = 50
+"""Constraint solver iterations per step (pybullet's default; 20 let the cap slip under the palm constraint)."""
+STEPS_PER_WAYPOINT = 6
 """Physics steps per waypoint: 1° or 5 mm per 25 ms, i.e. 0.7 rad/s or 0.2 m/s along the path."""
 TRACK_IK_ITERATIONS = 20
 """IK iterations per waypoint while tracking (the seed is the last solution, a degree or 5 mm away)."""
@@ -197,6 +197,7 @@ class _Run:
         self.planner: rb.Robot | None = None
         self.camera_target = np.zeros(3)
         self.camera_eye = np.ones(3)
+        self.part_links: set[int] = set()
 
     def close(self) -> None:
         for c in (self.sim, self.plan):
@@ -212,20 +213,23 @@ class _Run:
     def sim_time_s(self) -> float:
         return self.steps * TIME_STEP_S
 
-    def hand_contacts(self) -> list[int]:
-        """Scene links touched by any hand link now."""
+    def hand_contacts(self, part_only: bool = False) -> list[int]:
+        """Scene links touched by any hand link now (one entry per contact point); ``part_only``: only links
+        that the driven joints move."""
         assert self.robot is not None
         pts = self.pb.getContactPoints(self.robot.body, self.scene, physicsClientId=self.sim)
-        return [int(p[4]) for p in pts if p[3] in rb.HAND_LINKS]
+        links = [int(p[4]) for p in pts if p[3] in rb.HAND_LINKS]
+        return [k for k in links if k in self.part_links] if part_only else links
 
     def fingers_touching(self) -> int:
+        """How many fingers touch a moving part of the scene."""
         assert self.robot is not None
         pts = self.pb.getContactPoints(self.robot.body, self.scene, physicsClientId=self.sim)
-        links = {int(p[3]) for p in pts}
+        links = {int(p[3]) for p in pts if int(p[4]) in self.part_links}
         return sum(1 for prox, dist in rb.FINGER_LINKS if prox in links or dist in links)
 
     def check_contact(self) -> bool:
-        touching = bool(self.hand_contacts())
+        touching = bool(self.hand_contacts(part_only=True))
         self.contact_checks += 1
         self.contact_hits += int(touching)
         return touching
@@ -278,6 +282,24 @@ def _grasp_constraint(run: _Run, link: int) -> int:
     )
     pb.changeConstraint(cid, maxForce=2000.0, physicsClientId=run.sim)
     return cid
+
+
+def _descendants(run: _Run, joint: int) -> set[int]:
+    """Scene link ``joint`` (the child of that joint) and every link below it."""
+    pb = run.pb
+    parent = {
+        j: int(pb.getJointInfo(run.scene, j, physicsClientId=run.sim)[16])
+        for j in range(pb.getNumJoints(run.scene, physicsClientId=run.sim))
+    }
+    out = {joint}
+    changed = True
+    while changed:
+        changed = False
+        for child, par in parent.items():
+            if par in out and child not in out:
+                out.add(child)
+                changed = True
+    return out
 
 
 def _link_index(run: _Run, name: str) -> int:
@@ -374,6 +396,7 @@ def _execute(run: _Run, desc: Descriptor, grasp_mode: GraspMode, wall0: float) -
     joints = scene_joints(run.sim, run.scene, run.setup.joints, run.setup.name)
     matches = match_chain(desc.chain, [j.axis for j in joints])
     by_name = {j.axis.name: j for j in joints}
+    run.part_links = set().union(*(_descendants(run, by_name[m.joint].index) for m in matches))
     if run.setup.set_joint_friction:
         for j in scene_joints(run.sim, run.scene, None):
             pb.setJointMotorControl2(
@@ -432,7 +455,9 @@ def _execute(run: _Run, desc: Descriptor, grasp_mode: GraspMode, wall0: float) -
         if run.setup.grasp_link is not None:
             link = _link_index(run, run.setup.grasp_link)
         else:
-            link = max(set(touched), key=touched.count)
+            first = _descendants(run, by_name[matches[0].joint].index)
+            on_part = [t for t in touched if t in first] or touched
+            link = max(set(on_part), key=on_part.count)
         _grasp_constraint(run, link)
     elif grasp_mode == "constraint":
         notes.append("no hand-object contact after closing: no grasp constraint made")

@@ -119,9 +119,11 @@ class DrawerSpec:
         return Descriptor("open-test-drawer", "open", ObjectRef("test_drawer"), _grasp(palm, rot), (prim,))
 
 
-def _grasp(palm: tuple[float, float, float], rot: FloatArray) -> Grasp:
+def _grasp(
+    palm: tuple[float, float, float], rot: FloatArray, eigengrasps: tuple[float, float] = GRASP_EIGENGRASPS
+) -> Grasp:
     q = quat_from_matrix(rot)
-    return Grasp("barrett", GRASP_EIGENGRASPS, palm, (float(q[0]), float(q[1]), float(q[2]), float(q[3])))
+    return Grasp("barrett", eigengrasps, palm, (float(q[0]), float(q[1]), float(q[2]), float(q[3])))
 
 
 def write_urdf(text: str, folder: Path, name: str) -> Path:
@@ -130,3 +132,45 @@ def write_urdf(text: str, folder: Path, name: str) -> Path:
     path = folder / f"{name}.urdf"
     path.write_text(text)
     return path
+
+
+@dataclass(frozen=True)
+class CapSpec:
+    """A bottle (fixed) whose cap turns about +z through (x, y); cap top at ``top_z``; grasped from above."""
+
+    x: float = 0.0
+    y: float = 0.0
+    top_z: float = 0.3
+    cap_radius: float = 0.028
+
+    def urdf(self) -> str:
+        """URDF text."""
+        body_h = self.top_z - 0.03
+        bottle = (
+            f'<collision><origin xyz="0 0 {body_h / 2}"/><geometry><cylinder radius="0.045" length="{body_h}"/>'
+            f'</geometry></collision><visual><origin xyz="0 0 {body_h / 2}"/><geometry><cylinder radius="0.045" '
+            f'length="{body_h}"/></geometry></visual>'
+        )
+        cap = (
+            f'<collision><origin xyz="0 0 0.015"/><geometry><cylinder radius="{self.cap_radius}" length="0.03"/>'
+            f'</geometry></collision><visual><origin xyz="0 0 0.015"/><geometry><cylinder radius="{self.cap_radius}"'
+            ' length="0.03"/></geometry></visual>'
+        )
+        return (
+            '<?xml version="1.0"?>\n<robot name="test_bottle">'
+            f'<link name="bottle">{_INERTIAL_FIXED}{bottle}</link>'
+            '<link name="cap"><inertial><origin xyz="0 0 0.015"/><mass value="0.2"/>'
+            f'<inertia ixx="1e-4" iyy="1e-4" izz="1e-4" ixy="0" ixz="0" iyz="0"/></inertial>{cap}</link>'
+            '<joint name="cap_turn" type="revolute"><parent link="bottle"/><child link="cap"/>'
+            f'<origin xyz="{self.x} {self.y} {body_h}"/><axis xyz="0 0 1"/>'
+            '<limit lower="-10" upper="10" effort="10" velocity="5"/></joint></robot>\n'
+        )
+
+    def descriptor(self, extent: float = 3.5) -> Descriptor:
+        """Unscrew by ``extent`` radians (counter-clockwise seen from above)."""
+        rot = np.column_stack([[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]])  # palm z = -z (from above)
+        palm = (self.x, self.y, self.top_z + 0.055)
+        prim = Primitive("rotation", (self.x, self.y, self.top_z), (0.0, 0.0, 1.0), extent)
+        return Descriptor(
+            "open-test-bottle", "open", ObjectRef("test_bottle"), _grasp(palm, rot, (-1.13, 0.2)), (prim,)
+        )

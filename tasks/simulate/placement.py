@@ -9,6 +9,7 @@ joints set to where the chain puts them.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -19,7 +20,7 @@ from tasks.arrays import FloatArray
 from tasks.errors import SimulationError
 from tasks.simulate.ik import solve_ik
 from tasks.simulate.robot import ARM_JOINTS, ARM_REST, Robot
-from tasks.simulate.waypoints import approach_axis, matrix_from_axis_angle, quat_from_matrix
+from tasks.simulate.waypoints import angle_between_quats, approach_axis, matrix_from_axis_angle, quat_from_matrix
 
 RADII_M: tuple[float, ...] = (0.60, 0.50, 0.72, 0.40, 0.85)
 """Horizontal distances of the base from the palm path's centre, metres (the iiwa reaches 0.82 m)."""
@@ -34,6 +35,10 @@ MAX_REACH_M = 0.82 + 0.205
 PART_CLEARANCE_M = 0.15
 """The base must stay this far (horizontally) from the region a rotating part sweeps (axis foot to palm)."""
 PENETRATION_TOL_M = 0.005
+WIDE_TURN_RAD = 1.5
+"""A chain turning the palm by more than this (radians) also tries wrist-end seeds."""
+WRIST_END_RAD = 2.6
+"""Seed of the last wrist joint near an end of its ±3.05 rad range."""
 """Arm-scene penetration tolerated at a key pose, metres."""
 
 
@@ -105,11 +110,28 @@ def _penetrates(robot: Robot, scene_body: int) -> bool:
     return False
 
 
-def reach_keys(robot: Robot, scene_body: int, keys: Sequence[KeyPose]) -> FloatArray | None:
-    """(k, 7) arm angles reaching every key pose from the robot's current base, seeded along; None if not."""
+def seeds_for(keys: Sequence[KeyPose]) -> list[FloatArray]:
+    """IK seeds for the first key: the rest posture, and, when the palm turns by more than ``WIDE_TURN_RAD``
+    along the chain (a cap, a knob), the rest posture with the last wrist joint near either end of its range, so
+    the turn fits within the joint's limits."""
+    seeds = [ARM_REST.copy()]
+    turn = sum(angle_between_quats(a.quat, b.quat) for a, b in itertools.pairwise(keys))
+    if turn > WIDE_TURN_RAD:
+        for q7 in (-WRIST_END_RAD, WRIST_END_RAD):
+            seed = ARM_REST.copy()
+            seed[6] = q7
+            seeds.append(seed)
+    return seeds
+
+
+def reach_keys(
+    robot: Robot, scene_body: int, keys: Sequence[KeyPose], seed: FloatArray | None = None
+) -> FloatArray | None:
+    """(k, 7) arm angles reaching every key pose from the robot's current base, seeded along (the first key
+    from ``seed``, default ``ARM_REST``); None if some key is out of reach or the arm hits the scene there."""
     import pybullet as pb  # noqa: PLC0415
 
-    q = ARM_REST.copy()
+    q = ARM_REST.copy() if seed is None else seed.copy()
     path = []
     for i, key in enumerate(keys):
         sol = solve_ik(robot, key.position, key.quat, q, rounds=3, iterations=100 if i == 0 else 40)
@@ -137,6 +159,7 @@ def place_base(robot: Robot, scene_body: int, keys: Sequence[KeyPose], floor_z: 
         raise SimulationError(msg)
     saved = {j: pb.getJointState(scene_body, j, physicsClientId=robot.client)[0] for k in keys for j in k.scene_joints}
     cands = candidate_bases(keys, floor_z)
+    seeds = seeds_for(keys)
     try:
         for tried, (base, quat) in enumerate(cands, start=1):
             shoulder = base + np.array([0.0, 0.0, SHOULDER_HEIGHT_M])
@@ -145,9 +168,10 @@ def place_base(robot: Robot, scene_body: int, keys: Sequence[KeyPose], floor_z: 
             if not clear_of_parts(base, keys):
                 continue
             pb.resetBasePositionAndOrientation(robot.body, base.tolist(), quat.tolist(), physicsClientId=robot.client)
-            q_path = reach_keys(robot, scene_body, keys)
-            if q_path is not None:
-                return Placement(base, quat, q_path, tried)
+            for seed in seeds:
+                q_path = reach_keys(robot, scene_body, keys, seed)
+                if q_path is not None:
+                    return Placement(base, quat, q_path, tried)
     finally:
         for joint, value in saved.items():
             pb.resetJointState(scene_body, joint, value, 0.0, physicsClientId=robot.client)

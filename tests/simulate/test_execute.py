@@ -10,7 +10,7 @@ import pytest
 from schemas.descriptor import Primitive
 from tasks.errors import SceneError, SimulationError
 from tasks.simulate.api import simulate_descriptor
-from tasks.simulate.objects import DrawerSpec, write_urdf
+from tasks.simulate.objects import CapSpec, DrawerSpec, write_urdf
 from tasks.simulate.result import SUCCESS_FRACTION
 from tests.simulate.fixtures import door_descriptor, write_door
 
@@ -99,3 +99,12 @@ def test_truth_descriptor_pulls_the_drawer(tmp_path: Path) -> None:
     (prim,) = result.primitives
     assert prim.kind == "translation" and prim.joint == "slide"
     assert 0.9 * 0.25 <= prim.achieved <= 0.27
+
+
+def test_truth_descriptor_unscrews_the_cap_past_half_a_turn(tmp_path: Path) -> None:
+    spec = CapSpec(x=0.1, y=-0.1, top_z=0.45)
+    urdf = write_urdf(spec.urdf(), tmp_path, "bottle")
+    result = simulate_descriptor(spec.descriptor(3.5), urdf=urdf)
+    assert result.success, result.to_dict()
+    (prim,) = result.primitives
+    assert prim.joint == "cap_turn" and prim.achieved >= 0.9 * 3.5
