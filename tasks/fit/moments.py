@@ -79,6 +79,20 @@ def prefix_moments(points: Points) -> PrefixMoments:
     return PrefixMoments(origin, cum1, cum2, cum3, cum4)
 
 
+def concat_moments(parts: list[PrefixMoments]) -> tuple[PrefixMoments, IntArray]:
+    """Several markers' prefix sums stacked into one, with each marker's row offset: spans of every marker can
+    then be evaluated in one vectorised call (a span must stay inside its own marker's block)."""
+    offsets = np.cumsum([0] + [p.cum1.shape[0] for p in parts[:-1]]).astype(np.int64)
+    stacked = PrefixMoments(
+        np.zeros(3),
+        np.concatenate([p.cum1 for p in parts]),
+        np.concatenate([p.cum2 for p in parts]),
+        np.concatenate([p.cum3 for p in parts]),
+        np.concatenate([p.cum4 for p in parts]),
+    )
+    return stacked, offsets
+
+
 def span_residuals(pm: PrefixMoments, start: IntArray, stop: IntArray) -> SpanResiduals:
     """Still / line / circle residual sums of squares of sample spans ``[start, stop)`` (vectorised)."""
     start = np.asarray(start, dtype=np.int64)
@@ -127,21 +141,17 @@ def span_residuals(pm: PrefixMoments, start: IntArray, stop: IntArray) -> SpanRe
 
 
 def _centred_quartic(m1: FloatArray, m2: FloatArray, m3: FloatArray, m4: FloatArray, proj: FloatArray) -> FloatArray:
-    """E[(q^T P q)^2] with q = p - E[p], from raw moments up to degree 4 (batched)."""
+    """E[(q^T P q)^2] with q = p - E[p], from raw moments up to degree 4 (batched).
+
+    With A = p^T P p, B = c^T P p and K = c^T P c (c = E[p]): q^T P q = A - 2B + K and E[B] = K, so
+    E[(A - 2B + K)^2] = E[A^2] - 4 E[AB] + 2 K E[A] + 4 E[B^2] - 3 K^2.
+    """
     c = m1
-    c4 = (
-        m4
-        - np.einsum("bi,bjkl->bijkl", c, m3)
-        - np.einsum("bj,bikl->bijkl", c, m3)
-        - np.einsum("bk,bijl->bijkl", c, m3)
-        - np.einsum("bl,bijk->bijkl", c, m3)
-        + np.einsum("bi,bj,bkl->bijkl", c, c, m2)
-        + np.einsum("bi,bk,bjl->bijkl", c, c, m2)
-        + np.einsum("bi,bl,bjk->bijkl", c, c, m2)
-        + np.einsum("bj,bk,bil->bijkl", c, c, m2)
-        + np.einsum("bj,bl,bik->bijkl", c, c, m2)
-        + np.einsum("bk,bl,bij->bijkl", c, c, m2)
-        - 3.0 * np.einsum("bi,bj,bk,bl->bijkl", c, c, c, c)
-    )
-    out: FloatArray = np.einsum("bijkl,bij,bkl->b", c4, proj, proj)
+    pc = np.einsum("bij,bj->bi", proj, c)
+    k = np.einsum("bi,bi->b", c, pc)
+    e_a2 = np.einsum("bijkl,bij,bkl->b", m4, proj, proj)
+    e_ab = np.einsum("bijk,bij,bk->b", m3, proj, pc)
+    e_a = np.einsum("bij,bij->b", m2, proj)
+    e_b2 = np.einsum("bi,bij,bj->b", pc, m2, pc)
+    out: FloatArray = e_a2 - 4.0 * e_ab + 2.0 * k * e_a + 4.0 * e_b2 - 3.0 * k * k
     return out

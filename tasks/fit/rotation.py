@@ -135,7 +135,13 @@ def fit_rotation(tracks: list[Points], loss_scale_m: float, *, algebraic_only: b
 
     x0 = np.concatenate([[0.0, 0.0, 0.0, 0.0], r0, h0])
     sol = least_squares(
-        residuals, x0, loss="soft_l1", f_scale=max(loss_scale_m, 1e-6), x_scale="jac", max_nfev=MAX_EVALUATIONS
+        residuals,
+        x0,
+        loss="soft_l1",
+        f_scale=max(loss_scale_m, 1e-6),
+        x_scale="jac",
+        max_nfev=MAX_EVALUATIONS,
+        tr_solver="lsmr",
     )
     d, o = unpack(sol.x)
     res = residuals(sol.x)

@@ -43,8 +43,8 @@ def model_costs(
     rss_line: FloatArray,
     rss_circle: FloatArray,
     *,
-    sigma_still: float,
-    sigma_model: float,
+    sigma_still: float | FloatArray,
+    sigma_model: float | FloatArray,
     undefined: float,
 ) -> FloatArray:
     """(b, 4) negative log-likelihood + penalty of still, translation, rotation, undefined (nats).
@@ -54,8 +54,8 @@ def model_costs(
     or circle (mechanism play, marker wobble), ``sigma_model`` >= ``sigma_still``. The Gaussian normaliser
     3 log(sigma_model / sigma_still) per sample keeps the two comparable (costs are relative to "still").
     """
-    s_still = max(sigma_still, SIGMA_MIN_M)
-    s_model = max(sigma_model, s_still)
+    s_still = np.maximum(sigma_still, SIGMA_MIN_M)
+    s_model = np.maximum(sigma_model, s_still)
     lognorm = 3.0 * np.log(s_model / s_still) * n
     logn = np.log(np.maximum(n, 2.0))
     circle = np.minimum(rss_circle, rss_line)

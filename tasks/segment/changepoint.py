@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from tasks.arrays import FloatArray
-from tasks.fit.moments import span_residuals
+from tasks.fit.moments import concat_moments, span_residuals
 from tasks.fit.select import model_costs
 from tasks.segment.tracks import Track
 
@@ -32,7 +32,7 @@ class ChangepointParams:
     min_segment_s: float = 0.3
     penalty: float | None = None
     undefined_nats: float = 9.0
-    max_cells: int = 4000
+    max_cells: int = 3000
 
 
 @dataclass(frozen=True)
@@ -87,13 +87,29 @@ def search(tracks: list[Track], params: ChangepointParams) -> Segmentation:
     n_samples = max(len(tr.t_s) for tr in tracks)
     beta = params.penalty if params.penalty is not None else 3.0 * len(tracks) * math.log(max(n_samples, 2))
     margin = 4.0 * len(tracks) * math.log(max(n_samples, 2))
-    idx = [np.searchsorted(tr.t_s, grid, side="left") for tr in tracks]
+    stacked, offsets = concat_moments([tr.moments for tr in tracks])
+    # grid boundary -> row in the stacked prefix sums, per marker: (markers, cells + 1)
+    rows = np.stack([np.searchsorted(tr.t_s, grid, side="left") + off for tr, off in zip(tracks, offsets, strict=True)])
+    sig_still = np.array([tr.sigma_hf_m for tr in tracks])
+    sig_model = np.array([tr.sigma_m for tr in tracks])
+    n_markers = len(tracks)
 
     def cost(cands: IntArray, end: int) -> FloatArray:
-        total = np.zeros(len(cands))
-        for tr, ix in zip(tracks, idx, strict=True):
-            total += _marker_cost(tr, ix[cands], np.full(len(cands), ix[end]), params.undefined_nats)
-        return total
+        start = rows[:, cands].ravel()
+        stop = np.repeat(rows[:, end], len(cands))
+        res = span_residuals(stacked, start, stop)
+        costs = model_costs(
+            res.n,
+            res.still,
+            res.line,
+            res.circle,
+            sigma_still=np.repeat(sig_still, len(cands)),
+            sigma_model=np.repeat(sig_model, len(cands)),
+            undefined=params.undefined_nats,
+        )
+        best_model = np.where(res.n >= 4, costs.min(axis=1), 0.0)
+        out: FloatArray = best_model.reshape(n_markers, len(cands)).sum(axis=0)
+        return out
 
     best = np.full(n_cells + 1, np.inf)
     best[0] = -beta
