@@ -135,10 +135,14 @@ def _markers_table(chunks: list[MarkerChunk]) -> Any:
         idx, stamps, xyz = np.zeros(0, np.int32), np.zeros(0, np.int64), np.zeros((0, 3))
     encoded = [nm.encode() for nm in names]
     name_len = np.asarray([len(e) for e in encoded], dtype=np.int64)
-    offsets = np.zeros(len(idx) + 1, dtype=np.int64)
-    np.cumsum(name_len[idx] if len(idx) else np.zeros(0, np.int64), out=offsets[1:])
     data = b"".join(e * len(p) for e, p in zip(encoded, idx_parts, strict=True))
-    marker = pa.LargeStringArray.from_buffers(len(idx), pa.py_buffer(offsets), pa.py_buffer(data)).cast(pa.string())
+    wide = len(data) >= 2**31  # string offsets are int32 below 2 GiB of names, else a large_string column
+    offsets = np.zeros(len(idx) + 1, dtype=np.int64 if wide else np.int32)
+    np.cumsum(name_len[idx] if len(idx) else np.zeros(0, np.int64), out=offsets[1:])
+    kind = pa.LargeStringArray if wide else pa.StringArray
+    marker = kind.from_buffers(len(idx), pa.py_buffer(offsets), pa.py_buffer(data))
+    if wide:  # rare: needs pyarrow.compute (slow to import) for the cast
+        marker = marker.cast(pa.string())
     cols = [marker, pa.array(stamps, pa.int64())] + [pa.array(np.ascontiguousarray(xyz[:, i])) for i in range(3)]
     return pa.Table.from_arrays(cols, schema=MARKERS_SCHEMA)
 

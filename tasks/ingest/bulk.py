@@ -75,7 +75,13 @@ def bulk_decode(batch: Batch, msgtype: str, encoding: str) -> BulkResult:
     value_parts: list[F64Array] = []
     cand = all_idx[fits]
     off = batch.offsets[cand]
-    heads = _gather(arr, off, head)
+    lens = batch.lengths[cand]
+    rows: npt.NDArray[np.uint8] | None = None
+    if len(lens) and int(lens.min()) == int(lens.max()):  # one payload length: gather whole payloads once
+        rows = _gather(arr, off, int(lens[0]))
+        heads = rows[:, :head]
+    else:
+        heads = _gather(arr, off, head)
     if encoding == "cdr":
         ok = (heads[:, 0] == 0) & (heads[:, 1] == 1)
         sec = heads[:, 4:8].copy().view("<i4").reshape(-1).astype(np.int64)
@@ -87,6 +93,8 @@ def bulk_decode(batch: Batch, msgtype: str, encoding: str) -> BulkResult:
     rest_parts.append(cand[~ok])
     keep = ok
     cand, off, sec, nsec, slen = cand[keep], off[keep], sec[keep], nsec[keep], slen[keep]
+    if rows is not None and not bool(keep.all()):
+        rows = rows[keep]
     lengths = batch.lengths[cand]
     # group by (payload length, frame id length): each group shares one layout
     key = lengths * (1 << 20) + np.minimum(slen, (1 << 20) - 1)
@@ -123,7 +131,10 @@ def bulk_decode(batch: Batch, msgtype: str, encoding: str) -> BulkResult:
             if start + 8 * nf > L:
                 rest_parts.append(g_idx[sub])
                 continue
-            vals = _gather(arr, g_off[sub] + start, 8 * nf).view("<f8").reshape(-1, nf)
+            if rows is not None:
+                vals = rows[sel[sub], start : start + 8 * nf].copy().view("<f8").reshape(-1, nf)
+            else:
+                vals = _gather(arr, g_off[sub] + start, 8 * nf).view("<f8").reshape(-1, nf)
             idx_parts.append(g_idx[sub])
             stamp_parts.append(sec[sel][sub] * 1_000_000_000 + nsec[sel][sub])
             value_parts.append(vals.astype(np.float64))

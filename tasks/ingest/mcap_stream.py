@@ -113,7 +113,7 @@ class McapContent:
         return sum(len(b) for b in self.batches.get(channel_id, []))
 
 
-def _string(buf: bytes, pos: int) -> tuple[str, int]:
+def _string(buf: memoryview | bytes, pos: int) -> tuple[str, int]:
     (n,) = struct.unpack_from("<I", buf, pos)
     end = pos + 4 + n
     if end > len(buf):
@@ -142,10 +142,10 @@ class _CorruptError(Exception):
     """Internal: a record inside a chunk is malformed."""
 
 
-def _decompress(compression: str, data: bytes, size: int, partial: bool) -> bytes:
+def _decompress(compression: str, data: memoryview | bytes, size: int, partial: bool) -> bytes:
     """Decompress a chunk; ``partial`` returns whatever prefix decodes from a cut-off chunk."""
     if compression == "":
-        return data
+        return bytes(data)
     if compression == "zstd":
         import zstandard  # noqa: PLC0415
 
@@ -194,11 +194,17 @@ class _Collector:
             return
         self.add_indexed(buf, np.asarray(rec_offsets, dtype=np.int64), np.asarray(rec_lengths, dtype=np.int64))
 
-    def add_indexed(self, buf: bytes, rec_off: IntArray, rec_len: IntArray) -> None:
-        """Message records at ``rec_off`` (record start) with record content length ``rec_len``."""
-        arr = np.frombuffer(buf, dtype=np.uint8)
-        chan = _gather_uint(arr, rec_off + 9, 2).astype(np.int64)
-        log = _gather_uint(arr, rec_off + 15, 8).astype(np.int64)
+    def add_indexed(
+        self, buf: bytes, rec_off: IntArray, rec_len: IntArray, heads: npt.NDArray[np.uint8] | None = None
+    ) -> None:
+        """Message records at ``rec_off`` (record start) with record content length ``rec_len``.
+
+        ``heads``: the first 31 bytes of each record, if already gathered.
+        """
+        if heads is None:
+            heads = gather_bytes(np.frombuffer(buf, dtype=np.uint8), rec_off, _MSG_HEAD)
+        chan = heads[:, 9:11].copy().view("<u2").reshape(-1).astype(np.int64)
+        log = heads[:, 15:23].copy().view("<u8").reshape(-1).astype(np.int64)
         self.parts.append((buf, chan, log, rec_off + _MSG_HEAD, rec_len - _MSG.size))
         self.count += len(rec_off)
         self.record_bytes += int(rec_len.sum()) + 9 * len(rec_off)
@@ -238,13 +244,6 @@ def gather_bytes(arr: npt.NDArray[np.uint8], offsets: IntArray, nbytes: int) -> 
     windows = np.ndarray((len(arr) - nbytes + 1,), dtype=np.dtype((np.void, nbytes)), buffer=arr, strides=(1,))
     rows: npt.NDArray[np.uint8] = windows[offsets].view(np.uint8).reshape(n, nbytes)
     return rows
-
-
-def _gather_uint(arr: npt.NDArray[np.uint8], offsets: IntArray, size: int) -> npt.NDArray[np.uint64]:
-    """Little-endian unsigned integers of ``size`` bytes at ``offsets`` of a byte array."""
-    cols = gather_bytes(arr, offsets, size)
-    dtype = {2: "<u2", 4: "<u4", 8: "<u8"}[size]
-    return np.ascontiguousarray(cols).view(dtype).reshape(-1).astype(np.uint64)
 
 
 def _walk(buf: bytes, start: int, end: int, content: McapContent, msgs: tuple[list[int], list[int]]) -> None:
@@ -293,7 +292,9 @@ def _walk_prefix(buf: bytes, content: McapContent, msgs: tuple[list[int], list[i
         pos += 9 + length
 
 
-def _index_locations(buf: bytes, indexes: list[tuple[int, bytes]]) -> tuple[IntArray, IntArray] | None:
+def _index_locations(
+    buf: bytes, indexes: list[tuple[int, bytes]]
+) -> tuple[IntArray, IntArray, npt.NDArray[np.uint8]] | None:
     """Message record offsets and lengths in a chunk from its MessageIndex records, or None if unusable."""
     parts: list[IntArray] = []
     for _cid, rec in indexes:
@@ -309,20 +310,21 @@ def _index_locations(buf: bytes, indexes: list[tuple[int, bytes]]) -> tuple[IntA
         off = np.sort(off)
     size = len(buf)
     if len(off) == 0:
-        return off, off
-    if off[0] < 0 or off[-1] + 9 > size:
+        return off, off, np.zeros((0, _MSG_HEAD), dtype=np.uint8)
+    if off[0] < 0 or off[-1] + _MSG_HEAD > size:
         return None
     arr = np.frombuffer(buf, dtype=np.uint8)
-    if not np.all(arr[off] == OP_MESSAGE):
+    heads = gather_bytes(arr, off, _MSG_HEAD)  # opcode, length, channel, sequence, log time, publish time
+    if not np.all(heads[:, 0] == OP_MESSAGE):
         return None
-    lengths = _gather_uint(arr, off + 1, 8)
+    lengths = heads[:, 1:9].copy().view("<u8").reshape(-1)
     if np.any(lengths > size):
         return None
     rec_len = lengths.astype(np.int64)
     ends = off + 9 + rec_len
     if ends[-1] > size or np.any(ends[:-1] > off[1:]) or np.any(rec_len < _MSG.size):
         return None
-    return off, rec_len
+    return off, rec_len, heads
 
 
 def read_mcap(data: bytes, path: str, *, recover: bool = False) -> McapContent:
@@ -400,7 +402,7 @@ def _read_records(data: bytes, path: str, recover: bool, content: McapContent, c
                     (cid,) = struct.unpack_from("<H", data, nxt + 9)
                     indexes.append((cid, data[nxt + 9 : nxt + 9 + len2]))
                     nxt += 9 + len2
-                _read_chunk(bytes(rec), content, collector, indexes)
+                _read_chunk(rec, content, collector, indexes)
                 pos = nxt
                 continue
         except _CorruptError as err:
@@ -410,7 +412,7 @@ def _read_records(data: bytes, path: str, recover: bool, content: McapContent, c
         pos = body + length
 
 
-def _chunk_header(rec: bytes) -> tuple[int, int, str, int, int]:
+def _chunk_header(rec: memoryview | bytes) -> tuple[int, int, str, int, int]:
     """(uncompressed size, crc, compression, records start, records length) of a chunk record."""
     _start, _end, usize, crc = struct.unpack_from("<QQQI", rec, 0)
     compression, p = _string(rec, 28)
@@ -418,7 +420,7 @@ def _chunk_header(rec: bytes) -> tuple[int, int, str, int, int]:
     return usize, crc, compression, p + 8, rlen
 
 
-def _read_chunk(rec: bytes, content: McapContent, collector: _Collector, indexes: list[tuple[int, bytes]]) -> None:
+def _read_chunk(rec: memoryview, content: McapContent, collector: _Collector, indexes: list[tuple[int, bytes]]) -> None:
     import zstandard  # noqa: PLC0415
 
     try:
@@ -437,7 +439,7 @@ def _read_chunk(rec: bytes, content: McapContent, collector: _Collector, indexes
         raise _CorruptError("CRC mismatch")
     located = _index_locations(buf, indexes) if indexes else None
     if located is not None:
-        off, rec_len = located
+        off, rec_len, heads = located
         # walk only the gaps between message records (schemas and channels live there)
         ends = off + 9 + rec_len
         starts = np.concatenate([[0], ends])
@@ -449,7 +451,7 @@ def _read_chunk(rec: bytes, content: McapContent, collector: _Collector, indexes
         if msgs[0]:  # the index missed messages: do not trust it
             located = None
         else:
-            collector.add_indexed(buf, off, rec_len)
+            collector.add_indexed(buf, off, rec_len, heads)
             return
     msgs = ([], [])
     _walk(buf, 0, len(buf), content, msgs)
