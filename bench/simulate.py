@@ -53,34 +53,53 @@ def builtin_instances(n: int, rng: np.random.Generator) -> tuple[list[Instance],
 
 
 def procedural_instances(n: int, rng: np.random.Generator, folder: Path) -> tuple[list[Instance], str]:
-    """Randomised procedural doors and drawers (tasks.simulate.objects) with their truth descriptors."""
+    """Randomised procedural stand-ins of the paper's four tasks (tasks.simulate.objects) with truth descriptors:
+    a hinged door (microwave), a sliding door, a lever-handle door (two rotations) and a bottle cap."""
     import pybullet as pb
 
-    from tasks.simulate.objects import DoorSpec, DrawerSpec, write_urdf
+    from tasks.simulate.objects import CapSpec, DoorSpec, LeverDoorSpec, SlidingDoorSpec, write_urdf
 
     out: list[Instance] = []
     for i in range(n):
-        if i % 2 == 0:
-            door = DoorSpec(
-                hinge_x=float(rng.uniform(-0.1, 0.1)),
-                hinge_y=float(rng.uniform(-0.2, 0.2)),
-                hinge_z=float(rng.uniform(0.4, 1.0)),
-                width=float(rng.uniform(0.6, 0.9)),
+        kind = ("hinged-door", "sliding-door", "lever-door", "bottle-cap")[i % 4]
+        if kind == "hinged-door":
+            width = float(rng.uniform(0.5, 0.9))
+            spec_d = DoorSpec(
+                float(rng.uniform(-0.1, 0.1)),
+                float(rng.uniform(-0.2, 0.2)),
+                float(rng.uniform(0.4, 1.1)),
+                width,
+                width - 0.1,
             )
-            door = DoorSpec(door.hinge_x, door.hinge_y, door.hinge_z, door.width, door.width - 0.1)
-            text, desc, name = door.urdf(), door.descriptor(float(rng.uniform(0.6, 1.4))), "door"
+            text, desc = spec_d.urdf(), spec_d.descriptor(float(rng.uniform(0.6, 1.4)))
+        elif kind == "sliding-door":
+            spec_s = SlidingDoorSpec(
+                float(rng.uniform(-0.1, 0.1)), float(rng.uniform(-0.3, 0.3)), float(rng.uniform(0.5, 1.1))
+            )
+            text, desc = spec_s.urdf(), spec_s.descriptor(float(rng.uniform(0.2, 0.5)))
+        elif kind == "lever-door":
+            spec_l = LeverDoorSpec(
+                float(rng.uniform(-0.1, 0.1)),
+                float(rng.uniform(-0.2, 0.2)),
+                float(rng.uniform(0.5, 1.0)),
+                float(rng.uniform(0.65, 0.8)),
+            )
+            text, desc = spec_l.urdf(), spec_l.descriptor(float(rng.uniform(0.4, 0.8)), float(rng.uniform(0.6, 1.2)))
         else:
-            drawer = DrawerSpec(
-                front_x=float(rng.uniform(-0.1, 0.1)), y=float(rng.uniform(-0.3, 0.3)), z=float(rng.uniform(0.3, 1.0))
-            )
-            text, desc, name = drawer.urdf(), drawer.descriptor(float(rng.uniform(0.15, 0.35))), "drawer"
-        path = write_urdf(text, folder, f"{name}-{i}")
+            spec_c = CapSpec(float(rng.uniform(-0.2, 0.2)), float(rng.uniform(-0.2, 0.2)), float(rng.uniform(0.3, 0.9)))
+            text, desc = spec_c.urdf(), spec_c.descriptor(float(rng.uniform(1.5, 4.0)))
+        path = write_urdf(text, folder, f"{kind}-{i}")
 
         def load(client: int, path: Path = path) -> int:
             return int(pb.loadURDF(str(path), useFixedBase=True, physicsClientId=client))
 
-        out.append(Instance(name, SceneSetup(name, load), desc))
-    return out, "truth descriptors of procedural doors and drawers (tasks.simulate.objects); built-in scenes absent"
+        out.append(Instance(kind, SceneSetup(kind, load), desc))
+    source = (
+        "TRUTH descriptors of procedural stand-ins of the four tasks (tasks.simulate.objects: hinged door, sliding "
+        "door, lever door, bottle cap); the built-in scenes (tasks.scenes) and their learned descriptors were not "
+        "available"
+    )
+    return out, source
 
 
 @dataclass

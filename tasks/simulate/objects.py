@@ -174,3 +174,83 @@ class CapSpec:
         return Descriptor(
             "open-test-bottle", "open", ObjectRef("test_bottle"), _grasp(palm, rot, (-1.13, 0.2)), (prim,)
         )
+
+
+@dataclass(frozen=True)
+class SlidingDoorSpec:
+    """A panel sliding along +y in a fixed frame; vertical bar handle on its front face (x = front_x) at ``z``."""
+
+    front_x: float = 0.0
+    y: float = 0.0
+    z: float = 0.8
+
+    def urdf(self) -> str:
+        """URDF text."""
+        frame = _box((0.1, -0.45, 0.0), (0.2, 0.04, 1.0)) + _box((0.1, 0.9, 0.5), (0.2, 1.8, 0.04))
+        panel = (
+            _box((0.02, 0.0, 0.0), (0.04, 0.6, 0.9))
+            + _bar((-HANDLE_STANDOFF, 0.2, 0.0), 0.2, "0 0 0")
+            + _box((-0.035, 0.2, 0.09), (0.07, 0.02, 0.02), visual=False)
+            + _box((-0.035, 0.2, -0.09), (0.07, 0.02, 0.02), visual=False)
+        )
+        return (
+            '<?xml version="1.0"?>\n<robot name="test_sliding_door">'
+            f'<link name="frame">{_INERTIAL_FIXED}{frame}</link>'
+            '<link name="panel"><inertial><mass value="4"/>'
+            f'<inertia ixx="0.3" iyy="0.3" izz="0.3" ixy="0" ixz="0" iyz="0"/></inertial>{panel}</link>'
+            '<joint name="slide" type="prismatic"><parent link="frame"/><child link="panel"/>'
+            f'<origin xyz="{self.front_x} {self.y} {self.z}"/><axis xyz="0 1 0"/>'
+            '<limit lower="0" upper="0.8" effort="100" velocity="1"/></joint></robot>\n'
+        )
+
+    def descriptor(self, extent: float = 0.4) -> Descriptor:
+        """Slide open by ``extent`` metres along +y."""
+        rot = np.column_stack([[0.0, 0.0, 1.0], [0.0, -1.0, 0.0], [1.0, 0.0, 0.0]])
+        palm = (self.front_x - HANDLE_STANDOFF - PALM_TO_BAR, self.y + 0.2, self.z)
+        prim = Primitive("translation", None, (0.0, 1.0, 0.0), extent)
+        return Descriptor("open-test-sliding-door", "open", ObjectRef("test_sliding_door"), _grasp(palm, rot), (prim,))
+
+
+@dataclass(frozen=True)
+class LeverDoorSpec:
+    """A hinged door (hinge +z at (hinge_x, hinge_y), panel along +y) with a lever handle: the lever turns about
+    +x (the door's normal) at ``pivot_y`` from the hinge and points back towards the hinge; press it down, then
+    swing the door open (two rotations)."""
+
+    hinge_x: float = 0.0
+    hinge_y: float = 0.0
+    hinge_z: float = 0.5
+    pivot_y: float = 0.75
+
+    def urdf(self) -> str:
+        """URDF text."""
+        door = _box((0.0, 0.41, 0.0), (0.04, 0.8, 0.9))
+        lever = _box((-0.035, 0.0, 0.0), (0.07, 0.02, 0.02), visual=False) + _bar(
+            (-HANDLE_STANDOFF, -0.06, 0.0), 0.14, "1.5707963 0 0"
+        )
+        return (
+            '<?xml version="1.0"?>\n<robot name="test_lever_door">'
+            f'<link name="frame">{_INERTIAL_FIXED}{_box((0.1, -0.05, 0.0), (0.2, 0.04, 1.0))}</link>'
+            '<link name="door"><inertial><origin xyz="0 0.4 0"/><mass value="3"/>'
+            f'<inertia ixx="0.2" iyy="0.2" izz="0.2" ixy="0" ixz="0" iyz="0"/></inertial>{door}</link>'
+            '<link name="lever"><inertial><origin xyz="-0.06 -0.05 0"/><mass value="0.2"/>'
+            f'<inertia ixx="1e-3" iyy="1e-3" izz="1e-3" ixy="0" ixz="0" iyz="0"/></inertial>{lever}</link>'
+            '<joint name="hinge" type="revolute"><parent link="frame"/><child link="door"/>'
+            f'<origin xyz="{self.hinge_x} {self.hinge_y} {self.hinge_z}"/><axis xyz="0 0 1"/>'
+            '<limit lower="0" upper="2.0" effort="100" velocity="3"/></joint>'
+            '<joint name="lever_turn" type="revolute"><parent link="door"/><child link="lever"/>'
+            f'<origin xyz="-0.02 {self.pivot_y} 0"/><axis xyz="1 0 0"/>'
+            '<limit lower="0" upper="1.0" effort="20" velocity="3"/></joint></robot>\n'
+        )
+
+    def descriptor(self, lever_rad: float = 0.6, door_rad: float = 1.0) -> Descriptor:
+        """Press the lever by ``lever_rad`` about +x, then open the door by ``door_rad`` about +z."""
+        rot = np.column_stack([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])  # fingers wrap the y bar
+        bar_y = self.hinge_y + self.pivot_y - 0.07
+        palm = (self.hinge_x - 0.02 - HANDLE_STANDOFF - PALM_TO_BAR, bar_y, self.hinge_z)
+        pivot = (self.hinge_x - 0.02, self.hinge_y + self.pivot_y, self.hinge_z)
+        chain = (
+            Primitive("rotation", pivot, (1.0, 0.0, 0.0), lever_rad),
+            Primitive("rotation", (self.hinge_x, self.hinge_y, self.hinge_z), (0.0, 0.0, 1.0), door_rad),
+        )
+        return Descriptor("open-test-lever-door", "open", ObjectRef("test_lever_door"), _grasp(palm, rot), chain)
