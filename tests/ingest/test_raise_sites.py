@@ -201,7 +201,7 @@ def test_bag_damage(records: tuple[bytes, ...], match: str, tmp_path: Path, stor
 
 def test_bag_version_and_magic(tmp_path: Path) -> None:
     """An old bag version; a file with the bag magic only."""
-    with pytest.raises(RecordingError, match="unsupported ROS bag version 1.2"):
+    with pytest.raises(RecordingError, match=r"unsupported ROS bag version 1\.2"):
         read_recording(_bag(tmp_path, version=b"1.2"))
     from tasks.ingest.bag_stream import read_bag
 
@@ -243,7 +243,7 @@ def test_rosbag2_metadata_problems(bag2: Path, tmp_path: Path, store: Store) -> 
     ):
         bag = tmp_path / f"copy{i}"
         shutil.copytree(bag2, bag)
-        if "relative_file_paths" in changes and changes["relative_file_paths"]:
+        if changes.get("relative_file_paths"):
             (bag / "x.parquet").write_bytes(b"")
         _edit_meta(bag, **changes)
         with pytest.raises(RecordingError, match=match):
@@ -257,7 +257,7 @@ def test_rosbag2_sqlite_problems(bag2: Path, tmp_path: Path, store: Store) -> No
     db = next(bag.glob("*.db3"))
     db.rename(bag / "data.txt")
     _edit_meta(bag, relative_file_paths=["data.txt"])
-    with pytest.raises(RecordingError, match="unexpected storage file data.txt for sqlite3 storage"):
+    with pytest.raises(RecordingError, match=r"unexpected storage file data\.txt for sqlite3 storage"):
         ingest_recording(bag, store)
     bag = tmp_path / "orphan"
     shutil.copytree(bag2, bag)
