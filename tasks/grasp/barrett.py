@@ -13,7 +13,9 @@ Frames (all metres, radians):
   other across x.
 - The palm link's inertial frame is the palm frame, so pybullet's base pose (``resetBasePositionAndOrientation``,
   ``getBasePositionAndOrientation``) is the palm frame's pose.
-- Proximal joints 0..2.44 rad (0 = finger straight along +z); distal joint = proximal / 3 + 40° (the BH8's
+- Proximal joints 0..2.44 rad: 0 = finger stretched out flat, radially away from the palm centre (the BH8's
+  flat open hand); π/2 = proximal link along +z; 2.44 = curled 50° past it. Distal joint = proximal / 3 + 40°,
+  bending further towards the palm (the BH8's
   coupling; URDF mimic joints are ignored by pybullet, so ``apply_dofs`` enforces it).
 
 DOFs are ``(spread, finger_1, finger_2, finger_3)`` radians; ``dofs_from_eigengrasps`` maps GraspIt's two
@@ -218,7 +220,8 @@ def barrett_urdf_text() -> str:
         parts.append(_box_link(f"proximal_link_{k}", 0.1, PROXIMAL_HALF, PROXIMAL_LENGTH))
         parts.append(
             f'<joint name="proximal_{k}" type="revolute"><parent link="{knuckle}"/>'
-            f'<child link="proximal_link_{k}"/><origin xyz="0 {KNUCKLE_LENGTH} 0"/><axis xyz="1 0 0"/>'
+            f'<child link="proximal_link_{k}"/><origin xyz="0 {KNUCKLE_LENGTH} 0" rpy="{-math.pi / 2:.9f} 0 0"/>'
+            f'<axis xyz="1 0 0"/>'
             f'<limit lower="0" upper="2.44" effort="5" velocity="2"/></joint>'
         )
         parts.append(_box_link(f"distal_link_{k}", 0.05, DISTAL_HALF, DISTAL_LENGTH))
@@ -289,7 +292,7 @@ def link_transforms(joints: npt.ArrayLike) -> FloatArray:
         _tf(_rot_z(math.pi), (0.0, 0.0, 0.0)),
     )
     for k, knuckle in enumerate(bases):
-        prox = knuckle @ _tf(_rot_x(q[3 * k + 1]), (0.0, KNUCKLE_LENGTH, 0.0))
+        prox = knuckle @ _tf(_rot_x(q[3 * k + 1] - math.pi / 2), (0.0, KNUCKLE_LENGTH, 0.0))
         dist = prox @ _tf(_rot_x(q[3 * k + 2]), (0.0, 0.0, PROXIMAL_LENGTH))
         out[3 * k + 1], out[3 * k + 2], out[3 * k + 3] = knuckle, prox, dist
     return out

@@ -38,12 +38,15 @@ SPREAD_BINS = (0.0, 0.7, 2.0, 4.0)
 CHAIN_SPREADS = (-1.13, 0.0, 0.44, 2.0, -0.5, 1.2)
 """Start amplitude a1 of each annealing chain: spread 0, 1.13 (origin), π/2 and π, then in between."""
 LINE_SPREADS = (-1.13, 0.0)
-LINE_ROLLS_RAD = (0.0, math.radians(45.0), math.radians(-45.0))
-LINE_A2 = 0.0
-LINE_DISTANCE_M = 0.005
-"""Besides the annealed states, pre-grasps on the seed's approach line are tried (spread 0 and 1.13 rad,
-roll 0 and ±45°, palm 5 mm before the pivot, fingers at the eigengrasp origin and opened until free of the
-object): the contact energy favours curled fingers beside thin parts, these cover the demonstrator's approach."""
+LINE_POSES = (
+    *((dist, 0.0, a2) for dist in (0.005, 0.035, 0.065) for a2 in (0.0, -0.68, -1.37)),
+    (0.005, math.radians(45.0), 0.0),
+    (0.005, math.radians(-45.0), 0.0),
+)
+"""Besides the annealed states, pre-grasps on the seed's approach line are tried, (distance m, roll rad, a2):
+palm 5, 35 or 65 mm before the pivot with the fingers at 0.79, 0.4 or 0 rad (flat), and rolled ±45° at 5 mm, each
+with spread 0 and 1.13 rad (then opened or curled until free of the object). The contact energy favours
+curled fingers beside thin parts; these cover the demonstrator's own approach."""
 PRESHAPE_OPENINGS_RAD = (0.0, 0.8)
 """Each posture is tried as it is and, unless that gives a good force closure, with its fingers opened by 0.8 rad."""
 BACK_OFF_M = 0.02
@@ -174,24 +177,25 @@ def _free_pregrasp(  # noqa: PLR0917 -- private helper
     client_id: int, hand: int, obj: int, rot: FloatArray, pos: Vector3, quat: FloatArray, dofs: FloatArray
 ) -> tuple[Vector3, FloatArray] | None:
     """The nearest collision-free pre-grasp: back off along the approach axis in 4 mm steps (up to 20 mm) and
-    at each step try finger angles within 0.8 rad of the given ones, nearest first (0.1 rad steps, opening or
-    curling; the eigengrasp keeps the three fingers equal); None when nothing is free."""
+    at each step try finger angles within 0.8 rad of the given ones (0.1 rad steps); all back-offs with opening
+    fingers first, then with curling ones (the eigengrasp keeps the three fingers equal); None when nothing is free."""
     approach = rot[:, 2]
     start = float(dofs[1])
-    grid = np.arange(0.0, float(barrett.DOF_UPPER[1]) + 1e-9, 0.1)
-    angles = sorted(grid[np.abs(grid - start) <= 0.8], key=lambda a: (abs(a - start), a))
-    for back in np.arange(0.0, BACK_OFF_M + 1e-9, 0.004):
-        trial_pos = pos - back * approach
-        closing.set_pose(client_id, hand, trial_pos, quat)
-        barrett.apply_dofs(client_id, hand, dofs)
-        if closing.min_distance(client_id, hand, obj) >= 0.0:
-            return trial_pos, dofs.copy()
-        for angle in angles:
-            trial = dofs.copy()
-            trial[1:] = angle
-            barrett.apply_dofs(client_id, hand, trial)
-            if closing.min_distance(client_id, hand, obj) >= 0.0:
-                return trial_pos, trial
+    steps = np.arange(1, 9) * 0.1
+    opening = [a for a in start - steps if a >= 0.0] + ([0.0] if start > 0.0 else [])
+    curling = [a for a in start + steps if a <= float(barrett.DOF_UPPER[1])]
+    angles = opening + curling
+    backs = np.arange(0.0, BACK_OFF_M + 1e-9, 0.004)
+    for angles in ([start, *opening], curling):
+        for back in backs:
+            trial_pos = pos - back * approach
+            closing.set_pose(client_id, hand, trial_pos, quat)
+            for angle in angles:
+                trial = dofs.copy()
+                trial[1:] = angle if angle != start else dofs[1:]
+                barrett.apply_dofs(client_id, hand, trial)
+                if closing.min_distance(client_id, hand, obj) >= 0.0:
+                    return trial_pos, trial
     return None
 
 
@@ -255,8 +259,8 @@ def search(
         sub = AnnealTrace(pooled.states[sel], pooled.energies[sel], 0)
         picks += [(sub.states[i], float(sub.energies[i])) for i in _select(sub, per_bin, upper - lower)]
 
-    for a1, roll in itertools.product(LINE_SPREADS, LINE_ROLLS_RAD):
-        x = np.array([a1, LINE_A2, LINE_DISTANCE_M, roll, 0.0])
+    for a1, (dist, roll, a2) in itertools.product(LINE_SPREADS, LINE_POSES):
+        x = np.array([a1, a2, dist, roll, 0.0])
         picks.append((x, energy(x)))
     client = pb.connect(pb.DIRECT)
     try:

@@ -66,9 +66,16 @@ def test_coupling_is_enforced_in_pybullet_and_kinematics_match() -> None:
         pb.disconnect(client)
 
 
-def test_palm_frame_approach_axis_points_along_the_open_fingers() -> None:
-    tfs = barrett.link_transforms(barrett.joint_positions(barrett.dofs_from_eigengrasps(-4.0, -4.0)))
-    tips = [tfs[d + 1] @ np.array([0.0, 0.0, barrett.DISTAL_LENGTH, 1.0]) for _, d in barrett.FINGER_LINKS]
-    assert all(t[2] > 0.1 for t in tips)  # open fingertips lie ahead of the palm along +z
-    assert tips[0][1] < 0.05  # finger 1 (at y = +50 mm) bends towards the thumb
-    assert tips[2][1] > -0.05  # the thumb (at y = -50 mm) bends towards fingers 1 and 2
+def test_open_hand_is_flat_and_closing_brings_the_fingers_along_the_approach_axis() -> None:
+    def tips(a2: float) -> list[np.ndarray]:
+        tfs = barrett.link_transforms(barrett.joint_positions(barrett.dofs_from_eigengrasps(-1.13, a2)))
+        return [tfs[d + 1] @ np.array([0.0, 0.0, barrett.DISTAL_LENGTH, 1.0]) for _, d in barrett.FINGER_LINKS]
+
+    flat = tips(-4.0)  # proximal joints at 0: fingers stretched out radially, the BH8's flat hand
+    assert all(abs(t[1]) > 0.1 for t in flat)
+    assert all(0.0 < t[2] < 0.05 for t in flat)  # distal links bent 40° towards the approach side
+    half = math.pi / 2 - 0.79  # proximal links along +z (the approach axis)
+    upright = tips(half * math.sqrt(3.0))
+    assert all(t[2] > 0.08 for t in upright)  # proximal 70 mm up, distal bent 70° inwards
+    assert upright[0][1] < 0.05  # finger 1 (at y = +50 mm) bends towards the thumb
+    assert upright[2][1] > -0.05  # the thumb (at y = -50 mm) bends towards fingers 1 and 2
