@@ -196,7 +196,13 @@ def ingest_recording(
     rec_id = recording_id_of(source)
     final = store.recording_dir(rec_id)
     if store.has_recording(rec_id):
-        return IngestResult(rec_id, final, False, 0, ())
+        notes: tuple[str, ...] = ()
+        if object_model is not None:
+            stored = json.loads((final / RECORDING_FILE).read_text()).get("object_model_file") or {}
+            sha = hashlib.sha256(Path(object_model).read_bytes()).hexdigest() if Path(object_model).is_file() else ""
+            if stored.get("sha256") != sha:
+                notes = (f"{source}: already ingested as {rec_id} with another object model; kept the stored one",)
+        return IngestResult(rec_id, final, False, 0, notes)
     raw = read_recording(source, recover=recover)
     if raw.message_count == 0:
         n = len(raw.topics)

@@ -2,7 +2,8 @@
 
 Why not ``mcap.reader``: its seeking reader fails on files whose summary lacks the channels and schemas
 (the MCAP conformance ``-chx`` files without ``-rch``/``-rsh``), and its streaming reader builds one Python
-object per record (about 3 us each), which alone costs more than our whole bulk decode of 300,000 points.
+object per record: 1.6 s CPU just to iterate the records of the 300,000-message benchmark file, against
+0.12 s for this reader to produce every payload location (measured on the 2-core CI machine).
 This reader walks the file front to back (no seeking, so summary-less and index-less files read the same),
 decompresses each chunk in one call, and finds the message records of a chunk from the chunk's
 ``MessageIndex`` records with numpy (falling back to a record-by-record walk when there is no index or it

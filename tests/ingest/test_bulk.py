@@ -180,3 +180,21 @@ def test_object_model_file(tmp_path: Path, store: Store) -> None:
         ingest_recording(rec_path, Store(tmp_path / "s2"), object_model=bad)
     with pytest.raises(RecordingError, match="object model file not found"):
         ingest_recording(rec_path, Store(tmp_path / "s3"), object_model=tmp_path / "nope.ply")
+
+
+def test_reingest_with_another_object_model_warns(tmp_path: Path, store: Store) -> None:
+    """Ingesting again is a no-op; with a different --object-model it says the stored one was kept."""
+    from tasks.recording.writer import RecordingWriter
+
+    rec_path = tmp_path / "demo.mcap"
+    with RecordingWriter(rec_path, "mcap") as w:
+        w.add_points("/mocap/handle", np.arange(3, dtype=np.int64) + 1, np.zeros((3, 3)))
+    first = ingest_recording(rec_path, store)
+    ply = tmp_path / "m.ply"
+    header = "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\n"
+    ply.write_text(header + "end_header\n0 0 0\n")
+    again = ingest_recording(rec_path, store, object_model=ply)
+    assert (again.recording_id, again.created) == (first.recording_id, False)
+    assert again.warnings == (
+        f"{rec_path}: already ingested as {first.recording_id} with another object model; kept the stored one",
+    )
