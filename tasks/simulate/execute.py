@@ -62,6 +62,8 @@ PREGRASP_BACK_M = 0.10
 """Pre-grasp palm pose: 10 cm back along the approach direction."""
 CLOSE_EXTRA_RAD = 0.5
 """The fingers are driven this far past the grasp's DOFs, so they squeeze when they stop on the object."""
+OPEN_BEYOND_STRAIGHT_RAD = 0.3
+"""Pre-grasp: fingers opened this far past pointing along the approach (where the hand's joint range allows)."""
 CLOSE_MAX_S = 1.0
 HOLD_S = 0.5
 """Simulated seconds held still after the chain before judging stillness."""
@@ -421,7 +423,9 @@ def _execute(run: _Run, desc: Descriptor, grasp_mode: GraspMode, wall0: float) -
 
     # Pre-grasp: arm at the first key pose, hand open at the grasp's spread.
     target_dofs = barrett.dofs_from_eigengrasps(*desc.grasp.eigengrasps)
-    open_dofs = np.array([target_dofs[0], 0.0, 0.0, 0.0])
+    straight = rb.finger_straight_rad()
+    open_finger = max(float(barrett.DOF_LOWER[1]), straight - OPEN_BEYOND_STRAIGHT_RAD)
+    open_dofs = np.array([target_dofs[0], open_finger, open_finger, open_finger])
     loop0 = time.perf_counter()
     run.q = placement.q_path[0].copy()
     rb.set_arm(run.robot, run.q)

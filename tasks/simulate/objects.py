@@ -24,8 +24,21 @@ HANDLE_STANDOFF = 0.07
 """Bar axis in front of the face it is mounted on, metres."""
 PALM_TO_BAR = 0.04
 """Palm face to bar axis along the approach, metres (the Barrett fingers wrap a bar there)."""
-GRASP_EIGENGRASPS = (-1.13, 0.9)
-"""Spread 0 (fingers 1, 2 opposite finger 3), fingers closing to about 1.3 rad: a power grasp of a bar."""
+BAR_CURL_RAD = 1.31
+"""A power grasp of a bar: spread 0 (fingers 1, 2 opposite finger 3), proximal links 1.31 rad past pointing along
+the approach (clamped to the hand's range)."""
+CAP_CURL_RAD = 0.9
+"""A cap grasped from above: the fingers 0.9 rad past pointing along the approach."""
+
+
+def curl_eigengrasps(curl_rad: float) -> tuple[float, float]:
+    """Eigengrasp amplitudes of spread 0 and all three fingers ``curl_rad`` past pointing along the approach."""
+    from tasks.grasp import barrett  # noqa: PLC0415
+    from tasks.simulate.robot import finger_straight_rad  # noqa: PLC0415
+
+    finger = min(float(barrett.DOF_UPPER[1]), finger_straight_rad() + curl_rad)
+    return barrett.eigengrasps_from_dofs([0.0, finger, finger, finger])
+
 
 _INERTIAL_FIXED = '<inertial><mass value="0"/><inertia ixx="0" iyy="0" izz="0" ixy="0" ixz="0" iyz="0"/></inertial>'
 
@@ -119,11 +132,9 @@ class DrawerSpec:
         return Descriptor("open-test-drawer", "open", ObjectRef("test_drawer"), _grasp(palm, rot), (prim,))
 
 
-def _grasp(
-    palm: tuple[float, float, float], rot: FloatArray, eigengrasps: tuple[float, float] = GRASP_EIGENGRASPS
-) -> Grasp:
+def _grasp(palm: tuple[float, float, float], rot: FloatArray, curl_rad: float = BAR_CURL_RAD) -> Grasp:
     q = quat_from_matrix(rot)
-    return Grasp("barrett", eigengrasps, palm, (float(q[0]), float(q[1]), float(q[2]), float(q[3])))
+    return Grasp("barrett", curl_eigengrasps(curl_rad), palm, (float(q[0]), float(q[1]), float(q[2]), float(q[3])))
 
 
 def write_urdf(text: str, folder: Path, name: str) -> Path:
@@ -172,7 +183,7 @@ class CapSpec:
         palm = (self.x, self.y, self.top_z + 0.055)
         prim = Primitive("rotation", (self.x, self.y, self.top_z), (0.0, 0.0, 1.0), extent)
         return Descriptor(
-            "open-test-bottle", "open", ObjectRef("test_bottle"), _grasp(palm, rot, (-1.13, 0.2)), (prim,)
+            "open-test-bottle", "open", ObjectRef("test_bottle"), _grasp(palm, rot, CAP_CURL_RAD), (prim,)
         )
 
 

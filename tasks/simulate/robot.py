@@ -13,6 +13,7 @@ import os
 import re
 import tempfile
 from dataclasses import dataclass
+from functools import cache
 from pathlib import Path
 
 import numpy as np
@@ -49,6 +50,23 @@ MOVABLE_JOINTS: tuple[int, ...] = ARM_JOINTS + HAND_JOINTS
 """Every non-fixed joint, in index order (pybullet's IK wants one entry per movable joint)."""
 HAND_MAX_TORQUE_NM = 5.0
 """BH8-280 joint torque limit used when closing, N·m (the hand URDF's effort)."""
+
+
+@cache
+def finger_straight_rad() -> float:
+    """Proximal angle (radians) at which finger 1's proximal link points along the palm's +z (the approach).
+
+    Read off the hand's own kinematics (``barrett.link_transforms``), so the hand module may define its zero
+    anywhere (flat open hand or straight fingers)."""
+    grid = np.linspace(float(barrett.DOF_LOWER[1]), float(barrett.DOF_UPPER[1]), 245)
+    spread = barrett.dofs_from_eigengrasps(0.0, 0.0)[0]
+    best, best_cos = float(grid[0]), -2.0
+    for angle in grid:
+        tf = barrett.link_transforms(barrett.joint_positions([spread, angle, angle, angle]))
+        cos = float(tf[2][2, 2])  # z of the proximal link of finger 1 (link 1 -> index 2), palm frame
+        if cos > best_cos:
+            best, best_cos = float(angle), cos
+    return best
 
 
 def _iiwa_urdf_path() -> Path:
