@@ -1,0 +1,131 @@
+"""Public API of the transfer stage: ``register_models`` and ``transfer_descriptor``.
+
+``transfer_descriptor`` registers the descriptor's object model (source, metres, the source recording's world
+frame) onto a target model (metres, the target's frame), carries the chain and the grasp across and returns a
+new ``Descriptor`` whose ``provenance.parent`` is the source id and whose ``provenance.transfer`` holds the
+registration figures. No file IO: the caller loads both clouds and stores the result.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from schemas.descriptor import Descriptor, Grasp, ObjectRef
+from tasks.arrays import Points
+from tasks.code_version import code_version
+from tasks.errors import GraspError, TransferError
+from tasks.transfer.carry import axis_spread, carry_chain, carry_grasp, focus_points
+from tasks.transfer.registration import Registration, RegistrationParams, check_model, register_models
+from tasks.transfer.similarity import Similarity
+
+__all__ = ["RegistrationParams", "TransferResult", "register_models", "transfer_descriptor"]
+
+SPREAD_SCORE_GAP = 0.02
+"""Alignments scoring within this of the best count as equally plausible for the axis spread."""
+SPREAD_COUNT = 5
+"""At most this many best alignments (the best included) enter the axis spread."""
+
+
+@dataclass(frozen=True)
+class TransferResult:
+    """A transferred descriptor with the registration behind it and the axis uncertainty."""
+
+    descriptor: Descriptor
+    registration: Registration
+    axis_spread_deg: float
+    """Largest angle between the best alignment's carried axes and those of the equally good alternatives."""
+    axis_spread_mm: float
+    """Largest point-to-line distance between them, millimetres (target frame)."""
+    warnings: tuple[str, ...]
+
+
+def _replan(grasp: Grasp, target: Points, rng: np.random.Generator, *, strict: bool, warnings: list[str]) -> Grasp:
+    """Re-plan the carried grasp on the target model, seeded by the carried wrist pose."""
+    from tasks.grasp import api as grasp_api  # noqa: PLC0415 - the grasp stage loads pybullet
+
+    seed = np.asarray(grasp.wrist_position)
+    try:
+        part = grasp_api.part_near(target, seed)  # the planner grasps the part the hand reaches for
+        return grasp_api.plan_grasp(part, seed, np.asarray(grasp.wrist_orientation, dtype=np.float64), rng)
+    except GraspError as err:
+        if strict:
+            msg = f"grasp re-planning on the target model failed: {err}"
+            raise TransferError(msg) from err
+        warnings.append(f"grasp re-planning failed ({err}); kept the carried grasp")
+        return grasp
+
+
+def transfer_descriptor(
+    desc: Descriptor,
+    source_model: Points,
+    target_model: Points,
+    target_object: ObjectRef,
+    *,
+    name: str | None = None,
+    params: RegistrationParams | None = None,
+    strict: bool = False,
+    replan_grasp: bool = False,
+    target_label: str | None = None,
+    init: Similarity | None = None,
+    rng: np.random.Generator,
+) -> TransferResult:
+    """Carry ``desc`` from its object model ``source_model`` onto ``target_model`` (both (n, 3) metres).
+
+    ``target_object`` is the new object reference (the caller stores the model); ``name`` the new descriptor
+    name (default ``<source name>-to-<target object name>``); ``target_label`` the model's path or recording
+    id for the provenance. A poor registration is a warning, or ``TransferError`` when ``strict``.
+    """
+    params = params or RegistrationParams()
+    source = check_model(source_model, "source model")
+    target = check_model(target_model, "target model")
+    focus = focus_points(desc, source)
+    reg = register_models(source, target, focus=focus if len(focus) else None, params=params, init=init, rng=rng)
+    warnings = list(reg.warnings)
+    if reg.poor and strict:
+        msg = "; ".join(w for w in reg.warnings if w.startswith("poor")) + " (--strict)"
+        raise TransferError(msg)
+    best = reg.best.transform
+    plausible = [a.transform for a in reg.alignments[1:SPREAD_COUNT] if a.score >= reg.best.score - SPREAD_SCORE_GAP]
+    spread_deg, spread_m = axis_spread(desc.chain, best, plausible)
+
+    grasp = carry_grasp(desc.grasp, best) if desc.grasp is not None else None
+    if replan_grasp:
+        if grasp is None:
+            warnings.append("no grasp to re-plan: the source descriptor has none")
+        else:
+            grasp = _replan(grasp, target, rng, strict=strict, warnings=warnings)
+
+    info: dict[str, Any] = {
+        "fitness": reg.best.fitness,
+        "inlier_rmse_m": reg.best.inlier_rmse_m,
+        "threshold_m": reg.threshold_m,
+        "scale": best.scale,
+        "transform": best.matrix().tolist(),
+        "axis_spread_deg": spread_deg,
+        "axis_spread_mm": spread_m * 1e3,
+        "start": reg.best.start,
+        "region": "whole" if reg.crop_radius_m is None else "functional",
+        "crop_radius_m": reg.crop_radius_m,
+        "source_points_used": reg.source_points_used,
+        "poor": reg.poor,
+        "warnings": warnings,
+        "source": {"id": desc.id, "name": desc.name, "object": desc.object.name},
+        "target_model": target_label,
+    }
+    out = Descriptor(
+        name=name or f"{desc.name}-to-{target_object.name}",
+        action=desc.action,
+        object=target_object,
+        grasp=grasp,
+        chain=carry_chain(desc.chain, best),
+        recording_id=desc.recording_id,
+        recording_path=desc.recording_path,
+        parameters=desc.parameters,
+        code_version=code_version("tasks.transfer"),
+        parent=desc.id,
+        extra_provenance={**desc.extra_provenance, "transfer": info},
+    )
+    return TransferResult(out, reg, spread_deg, spread_m * 1e3, tuple(warnings))

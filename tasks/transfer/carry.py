@@ -1,0 +1,105 @@
+"""Carry a descriptor's chain and grasp across a similarity transform (source object frame -> target frame).
+
+Axis points move as points (x' = s R x + t), directions as directions (R d, renormalised), translation
+extents scale by s, rotation extents (radians) are kept; the wrist pose turns by R and its position moves as
+a point. Nothing here reads files or prints.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from schemas.descriptor import Descriptor, Grasp, Primitive, Quat, Vec3
+from tasks.arrays import FloatArray, Points, Vector3
+from tasks.transfer.similarity import Similarity, angle_between_deg, point_line_distance
+
+
+def _vec3(v: Vector3) -> Vec3:
+    return (float(v[0]), float(v[1]), float(v[2]))
+
+
+def matrix_from_quat(quat_xyzw: Quat | FloatArray) -> FloatArray:
+    """3x3 rotation matrix of a quaternion [x, y, z, w] (normalised first)."""
+    q = np.asarray(quat_xyzw, dtype=np.float64)
+    x, y, z, w = q / np.linalg.norm(q)
+    out: FloatArray = np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+    return out
+
+
+def quat_from_matrix(rotation: FloatArray) -> Quat:
+    """Quaternion [x, y, z, w] (w >= 0) of a proper 3x3 rotation matrix."""
+    m = np.asarray(rotation, dtype=np.float64)
+    trace = float(np.trace(m))
+    if trace > 0.0:
+        s = 2.0 * np.sqrt(trace + 1.0)
+        q = np.array([(m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s, 0.25 * s])
+    else:
+        i = int(np.argmax(np.diag(m)))
+        j, k = (i + 1) % 3, (i + 2) % 3
+        s = 2.0 * np.sqrt(1.0 + m[i, i] - m[j, j] - m[k, k])
+        q = np.zeros(4)
+        q[i] = 0.25 * s
+        q[j] = (m[j, i] + m[i, j]) / s
+        q[k] = (m[k, i] + m[i, k]) / s
+        q[3] = (m[k, j] - m[j, k]) / s
+    q /= np.linalg.norm(q)
+    if q[3] < 0.0:
+        q = -q
+    return (float(q[0]), float(q[1]), float(q[2]), float(q[3]))
+
+
+def carry_primitive(prim: Primitive, transform: Similarity) -> Primitive:
+    """One primitive in the target frame: pos as a point, dir as a direction, translation extent scaled."""
+    pos = _vec3(transform.apply_point(np.asarray(prim.pos))) if prim.pos is not None else None
+    direction = _vec3(transform.apply_direction(np.asarray(prim.dir)))
+    extent = prim.extent * transform.scale if prim.kind == "translation" else prim.extent
+    return replace(prim, pos=pos, dir=direction, extent=extent)
+
+
+def carry_grasp(grasp: Grasp, transform: Similarity) -> Grasp:
+    """The grasp in the target frame: wrist position as a point, orientation turned by the rotation part."""
+    position = transform.apply_point(np.asarray(grasp.wrist_position))
+    rotation = transform.rotation @ matrix_from_quat(grasp.wrist_orientation)
+    return replace(grasp, wrist_position=_vec3(position), wrist_orientation=quat_from_matrix(rotation))
+
+
+def carry_chain(chain: tuple[Primitive, ...], transform: Similarity) -> tuple[Primitive, ...]:
+    """Every primitive of a chain carried by ``transform``."""
+    return tuple(carry_primitive(p, transform) for p in chain)
+
+
+def focus_points(desc: Descriptor, model: Points) -> Points:
+    """The functional part's centres on the source model: the model points nearest to the wrist position and
+    to each rotation axis point (metres, source frame); (0, 3) when the descriptor has neither."""
+    seeds: list[Vector3] = [np.asarray(p.pos) for p in desc.chain if p.pos is not None]
+    if desc.grasp is not None:
+        seeds.append(np.asarray(desc.grasp.wrist_position))
+    if not seeds:
+        return np.zeros((0, 3))
+    out = []
+    for seed in seeds:
+        d2 = ((model - seed) ** 2).sum(axis=1)
+        out.append(model[int(np.argmin(d2))])
+    return np.array(out, dtype=np.float64)
+
+
+def axis_spread(chain: tuple[Primitive, ...], best: Similarity, others: list[Similarity]) -> tuple[float, float]:
+    """Largest change of any carried axis between ``best`` and ``others``: (degrees, metres point to line)."""
+    worst_deg, worst_m = 0.0, 0.0
+    for prim in chain:
+        ref = carry_primitive(prim, best)
+        for other in others:
+            alt = carry_primitive(prim, other)
+            worst_deg = max(worst_deg, angle_between_deg(np.asarray(ref.dir), np.asarray(alt.dir)))
+            if ref.pos is not None and alt.pos is not None:
+                dist = point_line_distance(np.asarray(alt.pos), np.asarray(ref.pos), np.asarray(ref.dir))
+                worst_m = max(worst_m, dist)
+    return worst_deg, worst_m

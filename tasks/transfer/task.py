@@ -1,0 +1,126 @@
+"""Prefect wrappers of transfer (``tasks.transfer.api.transfer_descriptor``) and of its inputs.
+
+``target_model_task`` puts the target model into the store (``models/<sha256>.parquet``; a recording is
+ingested first) and returns a ``ModelRef``; ``resolve_descriptor_task`` turns a descriptor reference into a
+``DescriptorRef``. ``transfer_task`` is cached on the source descriptor's id, the target model's sha256, the
+registration parameters, the seed and the code version of the transfer and grasp modules.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from prefect import task
+from prefect.cache_policies import NO_CACHE
+from prefect.context import TaskRunContext
+
+from flows.caching import RETRIES, RETRY_DELAY_S, retry_on_transient_io, stage_key
+from schemas.descriptor import Descriptor, ObjectRef
+from tasks.report.refs import DescriptorRef
+from tasks.store import Store
+from tasks.transfer.api import RegistrationParams, transfer_descriptor
+from tasks.transfer.model_io import is_recording_ref, read_model_file, read_recording_model, source_model_of
+
+TRANSFER_MODULES = ("tasks.transfer", "tasks.grasp", "schemas")
+"""Modules whose source is the transfer stage's code version."""
+
+
+@dataclass(frozen=True)
+class ModelRef:
+    """An object model in the store: ``models/<sha256>.parquet`` with ``points`` points, named ``object_name``."""
+
+    sha256: str
+    points: int
+    path: str
+    object_name: str
+    label: str
+
+
+def _label(text: str) -> str:
+    return re.sub(r"[^A-Za-z0-9._-]+", "-", text).strip("-._") or "model"
+
+
+@task(name="resolve-descriptor", cache_policy=NO_CACHE, persist_result=False)
+def resolve_descriptor_task(store_root: str, ref: str) -> DescriptorRef:
+    """The stored version (or file) a descriptor reference (path, id prefix, ``name@vN``) points at."""
+    store = Store(store_root)
+    path = store.resolve(ref)
+    desc = Descriptor.from_json(path.read_text(), source=str(path))
+    match = re.fullmatch(r"v(\d+)", path.stem)
+    version = int(match[1]) if match and path.parent == store.descriptor_dir(desc.name) else 0
+    return DescriptorRef(desc.name, version, desc.id, str(path), created=False)
+
+
+@task(
+    name="target-model",
+    cache_policy=NO_CACHE,
+    persist_result=False,
+    retries=RETRIES,
+    retry_delay_seconds=RETRY_DELAY_S,
+    retry_condition_fn=retry_on_transient_io,
+)
+def target_model_task(store_root: str, model: str, seed: int = 0) -> ModelRef:
+    """Store the target model (a model file, or the object model of a recording) by its sha256."""
+    store = Store(store_root)
+    if is_recording_ref(store, model):
+        points, label, object_name = read_recording_model(store, model)
+    else:
+        path = Path(model)
+        points = read_model_file(path, seed=seed)
+        label, object_name = str(path), _label(path.stem)
+    sha, stored = store.put_model(points)
+    return ModelRef(sha, len(points), str(stored), object_name, label)
+
+
+def transfer_cache_key(context: TaskRunContext, parameters: dict[str, Any]) -> str:
+    """Cache key of a transfer: source descriptor id, target model sha256, parameters, seed, code version."""
+    del context
+    source: DescriptorRef = parameters["descriptor"]
+    target: ModelRef = parameters["target"]
+    params = {k: parameters.get(k) for k in ("name", "whole", "crop_radius_m", "strict", "replan_grasp", "seed")}
+    refs = {"descriptor": source.id, "target_model": target.sha256}
+    return stage_key("transfer", TRANSFER_MODULES, refs, params)
+
+
+@task(
+    name="transfer",
+    cache_key_fn=transfer_cache_key,
+    persist_result=True,
+    retries=RETRIES,
+    retry_delay_seconds=RETRY_DELAY_S,
+    retry_condition_fn=retry_on_transient_io,
+)
+def transfer_task(
+    store_root: str,
+    descriptor: DescriptorRef,
+    target: ModelRef,
+    *,
+    name: str | None = None,
+    whole: bool = False,
+    crop_radius_m: float | None = None,
+    strict: bool = False,
+    replan_grasp: bool = False,
+    seed: int = 0,
+) -> Descriptor:
+    """Register the source descriptor's object model onto ``target`` and carry chain and grasp across."""
+    store = Store(store_root)
+    source = Descriptor.from_json(Path(descriptor.path).read_text(), source=descriptor.path)
+    source_points = source_model_of(store, source.object.model_sha256, source.object.model_uri, descriptor.path)
+    target_points = store.load_model(target.sha256)
+    result = transfer_descriptor(
+        source,
+        source_points,
+        target_points,
+        ObjectRef(target.object_name, target.sha256, target.points, target.path),
+        name=name or f"{source.name}-to-{_label(target.object_name)}",
+        params=RegistrationParams(crop_radius_m=crop_radius_m, whole=whole),
+        strict=strict,
+        replan_grasp=replan_grasp,
+        target_label=target.label,
+        rng=np.random.default_rng(seed),
+    )
+    return result.descriptor

@@ -1,0 +1,148 @@
+"""``pbd transfer`` end to end: a stored descriptor, a PLY target written by open3d, errors as one line."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import open3d as o3d
+import pytest
+
+from schemas.descriptor import Descriptor
+from tasks.cli import main
+from tasks.errors import TransferError
+from tasks.store import Store
+from tasks.transfer import shapes
+from tasks.transfer.model_io import read_model_file, read_recording_model, source_model_of
+from tasks.transfer.similarity import Similarity, angle_between_deg
+
+from .conftest import make_descriptor
+
+
+def _write_ply(path: Path, points: np.ndarray) -> Path:
+    pcd = o3d.geometry.PointCloud()
+    pcd.points = o3d.utility.Vector3dVector(points)
+    assert o3d.io.write_point_cloud(str(path), pcd)
+    return path
+
+
+def test_cli_end_to_end(
+    store: Store, stored_descriptor: Descriptor, bottle_model: shapes.ShapeModel, tmp_path: Path, capsys
+) -> None:
+    rng = np.random.default_rng(61)
+    truth = Similarity(1.2, shapes.random_rotation(rng), np.array([0.5, 0.1, -0.3]))
+    ply = _write_ply(tmp_path / "bottle b.ply", truth.apply_points(bottle_model.points))
+    out = tmp_path / "out.json"
+    argv = ["transfer", "twist-cap@v1", "--to", str(ply), "--store", str(store.root), "--out", str(out)]
+    assert main(argv) == 0
+    printed = capsys.readouterr().out.splitlines()
+    assert printed[0] == "twist-cap-to-bottle-b@v1"
+    new = store.load("twist-cap-to-bottle-b@v1")
+    assert printed[1] == f"id {new.id}"
+    assert "fitness" in printed[3] and "scale 1.2" in printed[3]
+    assert new.parent == stored_descriptor.id
+    assert Descriptor.from_json(out.read_text()).id == new.id
+    info = new.extra_provenance["transfer"]
+    assert info["target_model"] == str(ply)
+    assert info["scale"] == pytest.approx(1.2, rel=0.02)
+    axis = np.array(new.chain[0].dir)
+    assert angle_between_deg(axis, truth.apply_direction(np.array([0.0, 0.0, 1.0]))) < 1.0
+    assert new.object.model_sha256 is not None
+    assert store.load_model(new.object.model_sha256).shape == bottle_model.points.shape
+    # the same transfer again stores nothing new; --whole and --name give another descriptor
+    assert main(argv[:-2]) == 0
+    assert "(unchanged)" in capsys.readouterr().out
+    assert main([*argv[:-2], "--whole", "--name", "whole-b", "--seed", "3"]) == 0
+    assert store.load("whole-b@latest").extra_provenance["transfer"]["region"] == "whole"
+
+
+def test_cli_errors_are_one_line_exit_2(
+    store: Store, stored_descriptor: Descriptor, bottle_model: shapes.ShapeModel, tmp_path: Path, capsys
+) -> None:
+    root = str(store.root)
+    bad = tmp_path / "bad.ply"
+    bad.write_bytes(b"not a ply at all")
+    empty = tmp_path / "empty.npy"
+    np.save(empty, np.zeros((0, 3)))
+    cases = {
+        str(tmp_path / "missing.ply"): "no such model file",
+        str(bad): "empty point cloud",
+        str(empty): "empty point cloud",
+        str(tmp_path / "x.unknown"): "no such model file",
+    }
+    for model, message in cases.items():
+        assert main(["transfer", "twist-cap@v1", "--to", model, "--store", root]) == 2
+        err = capsys.readouterr().err
+        assert message in err and err.count("\n") == 1, err
+    no_model = make_descriptor(bottle_model, None)
+    no_model_path = tmp_path / "nomodel.json"
+    no_model_path.write_text(no_model.to_json())
+    good = _write_ply(tmp_path / "good.ply", bottle_model.points)
+    assert main(["transfer", str(no_model_path), "--to", str(good), "--store", root]) == 2
+    assert "descriptor has no object model to register" in capsys.readouterr().err
+    assert main(["transfer", "nosuch@v1", "--to", str(good), "--store", root]) == 2
+    assert "no descriptor named 'nosuch'" in capsys.readouterr().err
+    assert main(["transfer", "twist-cap@v1", "--to", str(good), "--store", root, "--crop-radius", "-1"]) == 2
+    assert "--crop-radius -1.0: must be positive" in capsys.readouterr().err
+
+
+def test_model_reader_errors(store: Store, tmp_path: Path) -> None:
+    with pytest.raises(TransferError, match="no such model file"):
+        read_model_file(tmp_path / "nothing.ply")
+    with pytest.raises(TransferError, match="not a file"):
+        read_model_file(tmp_path)
+    (tmp_path / "m.foo").write_text("1 2 3")
+    with pytest.raises(TransferError, match=r"unknown model format \.foo"):
+        read_model_file(tmp_path / "m.foo")
+    np.save(tmp_path / "flat.npy", np.zeros((5, 2)))
+    with pytest.raises(TransferError, match=r"expected an \(n, 3\) array, got shape \(5, 2\)"):
+        read_model_file(tmp_path / "flat.npy")
+    (tmp_path / "junk.npy").write_bytes(b"junk")
+    with pytest.raises(TransferError, match=r"unreadable \.npy"):
+        read_model_file(tmp_path / "junk.npy")
+    (tmp_path / "junk.parquet").write_bytes(b"junk")
+    with pytest.raises(TransferError, match="not an object model Parquet"):
+        read_model_file(tmp_path / "junk.parquet")
+    (tmp_path / "junk.stl").write_bytes(b"junk")
+    with pytest.raises(TransferError, match="unreadable or empty mesh"):
+        read_model_file(tmp_path / "junk.stl")
+    with pytest.raises(TransferError, match="no such model file or recording"):
+        read_recording_model(store, str(tmp_path / "gone.mcap"))
+    with pytest.raises(TransferError, match="is neither in the store nor at its uri"):
+        source_model_of(store, "e" * 64, str(tmp_path / "gone.ply"), "desc.json")
+
+
+def test_model_reader_formats(tmp_path: Path) -> None:
+    mesh = o3d.geometry.TriangleMesh.create_box(0.1, 0.2, 0.3)
+    assert o3d.io.write_triangle_mesh(str(tmp_path / "box.stl"), mesh.compute_triangle_normals())
+    assert o3d.io.write_triangle_mesh(str(tmp_path / "box.obj"), mesh)
+    for name in ("box.stl", "box.obj"):
+        pts = read_model_file(tmp_path / name)
+        assert pts.shape == (8192, 3)
+        np.testing.assert_allclose(pts.max(axis=0), [0.1, 0.2, 0.3], atol=1e-6)
+    cloud = np.random.default_rng(1).normal(size=(100, 3))
+    np.save(tmp_path / "c.npy", cloud)
+    np.testing.assert_array_equal(read_model_file(tmp_path / "c.npy"), cloud)
+    _write_ply(tmp_path / "c.pcd", cloud)
+    np.testing.assert_allclose(read_model_file(tmp_path / "c.pcd"), cloud, atol=1e-6)
+
+
+def test_recording_target(
+    store: Store, stored_descriptor: Descriptor, bottle_model: shapes.ShapeModel, tmp_path: Path
+) -> None:
+    from tasks.recording.writer import RecordingWriter
+
+    path = tmp_path / "demo.mcap"
+    with RecordingWriter(path, "mcap") as writer:
+        writer.add_cloud("/object/model", 1_000_000_000, bottle_model.points * 0.9)
+        writer.add_string("/demo/meta", 1_000_000_000, json.dumps({"action": "twist", "object": "small bottle"}))
+        stamps = np.arange(5, dtype=np.int64) * 10_000_000 + 1_000_000_000
+        writer.add_points("/mocap/marker_0", stamps, np.zeros((5, 3)))
+    try:
+        points, rec_id, name = read_recording_model(store, str(path))
+    except TransferError as err:
+        pytest.skip(f"ingest not available: {err}")
+    assert name == "small bottle"
+    assert len(rec_id) == 16
+    assert points.shape[0] == len(bottle_model.points)

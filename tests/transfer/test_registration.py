@@ -1,0 +1,148 @@
+"""Registration recovers a known similarity; a descriptor's axes move with it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from schemas.descriptor import ObjectRef
+from tasks.errors import GraspError, TransferError
+from tasks.transfer import shapes
+from tasks.transfer.api import RegistrationParams, register_models, transfer_descriptor
+from tasks.transfer.carry import carry_grasp
+from tasks.transfer.registration import check_model
+from tasks.transfer.similarity import Similarity, angle_between_deg, point_line_distance
+
+from .conftest import make_descriptor
+
+FAST = RegistrationParams(ransac_iterations=20_000, ransac_runs=1, keep=6)
+
+
+def _rotation_angle_deg(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.degrees(np.arccos(np.clip((np.trace(a.T @ b) - 1.0) / 2.0, -1.0, 1.0))))
+
+
+@pytest.mark.parametrize(("scale", "seed"), [(0.8, 11), (1.3, 12)])
+def test_known_similarity_is_recovered(bottle_model: shapes.ShapeModel, scale: float, seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    truth = Similarity(scale, shapes.random_rotation(rng), np.array([0.3, -0.2, 0.5]))
+    target = truth.apply_points(bottle_model.points) + rng.normal(scale=3e-4, size=bottle_model.points.shape)
+    reg = register_models(bottle_model.points, target, focus=bottle_model.focus, params=FAST, rng=rng)
+    est = reg.best.transform
+    assert est.scale == pytest.approx(scale, rel=0.02)  # fitted on the cap region: the axis is what is sharp
+    # a bottle is symmetric about its axis: compare what is defined, the axis and the points on it
+    axis_true = truth.apply_direction(bottle_model.axis_dir)
+    assert angle_between_deg(est.apply_direction(bottle_model.axis_dir), axis_true) < 1.0
+    assert np.linalg.norm(est.apply_point(bottle_model.axis_pos) - truth.apply_point(bottle_model.axis_pos)) < 1e-3
+    assert reg.best.fitness > 0.8
+    assert not reg.poor
+    assert reg.crop_radius_m is not None
+
+
+def test_asymmetric_shape_recovers_the_full_rotation() -> None:
+    rng = np.random.default_rng(21)
+    mug = shapes.mug(rng, n=4000)
+    truth = Similarity(1.3, shapes.random_rotation(rng), np.array([-0.1, 0.4, 0.2]))
+    target = truth.apply_points(mug.points) + rng.normal(scale=3e-4, size=mug.points.shape)
+    reg = register_models(mug.points, target, params=RegistrationParams(whole=True, keep=6), rng=rng)
+    assert _rotation_angle_deg(reg.best.transform.rotation, truth.rotation) < 1.0
+    assert reg.best.transform.scale == pytest.approx(1.3, rel=0.01)
+    assert np.linalg.norm(reg.best.transform.translation - truth.translation) < 2e-3
+    assert reg.crop_radius_m is None
+
+
+def test_descriptor_moves_with_the_object(bottle_model: shapes.ShapeModel) -> None:
+    rng = np.random.default_rng(31)
+    truth = Similarity(0.8, shapes.random_rotation(rng), np.array([1.0, 2.0, 0.5]))
+    target = truth.apply_points(bottle_model.points) + rng.normal(scale=3e-4, size=bottle_model.points.shape)
+    desc = make_descriptor(bottle_model, "a" * 64)
+    ref = ObjectRef("bottle-b", "b" * 64, len(target), "models/b.parquet")
+    out = transfer_descriptor(desc, bottle_model.points, target, ref, params=FAST, target_label="b.ply", rng=rng)
+    new = out.descriptor
+    rot, tra = new.chain
+    assert angle_between_deg(np.array(rot.dir), truth.apply_direction(np.array([0.0, 0.0, 1.0]))) < 1.0
+    assert point_line_distance(truth.apply_point(bottle_model.axis_pos), np.array(rot.pos), np.array(rot.dir)) < 1e-3
+    assert rot.extent == pytest.approx(3.0)
+    assert tra.extent == pytest.approx(0.04 * 0.8, rel=0.01)
+    assert new.parent == desc.id
+    assert new.name == "twist-cap-to-bottle-b"
+    assert new.object == ref
+    assert new.grasp is not None
+    wrist = truth.apply_point(np.array(desc.grasp.wrist_position)) if desc.grasp else None
+    assert np.linalg.norm(np.array(new.grasp.wrist_position) - wrist) < 2e-3
+    info = new.to_dict()["provenance"]["transfer"]
+    assert info["scale"] == pytest.approx(0.8, rel=0.01)
+    assert info["fitness"] > 0.8
+    assert info["source"]["id"] == desc.id
+    assert info["target_model"] == "b.ply"
+    assert info["axis_spread_deg"] < 1.0
+    assert np.array(info["transform"]).shape == (4, 4)
+
+
+def test_unrelated_target_is_poor_and_strict_refuses(bottle_model: shapes.ShapeModel) -> None:
+    rng = np.random.default_rng(41)
+    noise = rng.uniform(-0.2, 0.2, size=(1500, 3))
+    desc = make_descriptor(bottle_model, "a" * 64)
+    ref = ObjectRef("noise", "c" * 64, len(noise))
+    out = transfer_descriptor(desc, bottle_model.points, noise, ref, params=FAST, rng=rng)
+    assert out.registration.poor
+    assert any(w.startswith("poor registration") for w in out.warnings)
+    assert out.descriptor.to_dict()["provenance"]["transfer"]["poor"] is True
+    with pytest.raises(TransferError, match=r"poor registration: fitness .* \(--strict\)"):
+        transfer_descriptor(desc, bottle_model.points, noise, ref, params=FAST, strict=True, rng=rng)
+
+
+def test_replan_grasp_plans_on_the_target(bottle_model: shapes.ShapeModel) -> None:
+    rng = np.random.default_rng(51)
+    target = bottle_model.points * 1.1
+    desc = make_descriptor(bottle_model, "a" * 64)
+    ref = ObjectRef("b", "d" * 64, len(target))
+    out = transfer_descriptor(desc, bottle_model.points, target, ref, params=FAST, replan_grasp=True, rng=rng)
+    carried = carry_grasp(desc.grasp, out.registration.best.transform) if desc.grasp else None
+    assert out.descriptor.grasp is not None and carried is not None
+    assert out.descriptor.grasp.quality != carried.quality  # planned anew: its own qualities
+    assert not any("re-planning failed" in w for w in out.warnings)
+
+
+def test_replan_failure_warns_or_refuses_under_strict(
+    bottle_model: shapes.ShapeModel, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from tasks.grasp import api as grasp_api
+
+    def refuse(*args: object, **kwargs: object) -> None:
+        raise GraspError("nothing reachable")
+
+    monkeypatch.setattr(grasp_api, "plan_grasp", refuse)  # the planner is not under test here
+    rng = np.random.default_rng(53)
+    pts = bottle_model.points
+    desc = make_descriptor(bottle_model, "a" * 64)
+    ref = ObjectRef("b", "d" * 64, len(pts))
+    out = transfer_descriptor(desc, pts, pts, ref, params=FAST, replan_grasp=True, rng=rng)
+    assert "grasp re-planning failed (nothing reachable); kept the carried grasp" in out.warnings
+    assert out.descriptor.grasp is not None and out.descriptor.grasp.eigengrasps == (0.4, -0.1)
+    with pytest.raises(TransferError, match="grasp re-planning on the target model failed: nothing reachable"):
+        transfer_descriptor(desc, pts, pts, ref, params=FAST, replan_grasp=True, strict=True, rng=rng)
+
+
+def test_replan_without_a_grasp_warns(bottle_model: shapes.ShapeModel) -> None:
+    rng = np.random.default_rng(52)
+    desc = make_descriptor(bottle_model, "a" * 64).with_grasp(None)
+    ref = ObjectRef("b", "d" * 64, len(bottle_model.points))
+    pts = bottle_model.points
+    out = transfer_descriptor(desc, pts, pts, ref, params=FAST, replan_grasp=True, rng=rng)
+    assert "no grasp to re-plan: the source descriptor has none" in out.warnings
+    assert out.descriptor.grasp is None
+
+
+@pytest.mark.parametrize(
+    ("points", "match"),
+    [
+        (np.zeros((10, 2)), r"source model: expected shape \(n, 3\)"),
+        (np.ones((20, 3)), "source model: 20 finite points, need at least 30"),
+        (np.ones((40, 3)), "source model: all points coincide"),
+        (np.full((100, 3), np.nan), "source model: 0 finite points"),
+    ],
+)
+def test_unusable_clouds_are_refused(points: np.ndarray, match: str) -> None:
+    with pytest.raises(TransferError, match=match):
+        check_model(points, "source model")
