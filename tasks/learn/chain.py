@@ -204,19 +204,75 @@ def merge_adjacent(prep: PreparedRecording, fits: list[SegmentFit], params: Lear
     return out
 
 
-def _rest_samples(track: Track, fits: list[SegmentFit], i: int, step: int) -> Points | None:
-    """Samples of ``track`` in the run of segments next to segment i (``step`` -1 before, +1 after) where it
-    is still: the rest position there, with the slow start or stop of the motion a small part of it."""
+def _rest_window(name: str, fits: list[SegmentFit], i: int, step: int) -> tuple[float, float] | None:
+    """Time span (s) of the run of segments next to segment i (``step`` -1 before, +1 after) where marker
+    ``name`` is still: its rest there, with the slow start or stop of the motion a small part of it."""
     j = i + step
     lo = hi = None
-    while 0 <= j < len(fits) and track.name in fits[j].still_markers:
+    while 0 <= j < len(fits) and name in fits[j].still_markers:
         lo = fits[j].t_start if lo is None or step < 0 else lo
         hi = fits[j].t_end if hi is None or step > 0 else hi
         j += step
     if lo is None or hi is None:
         return None
-    pts = _samples(track, lo, hi)[1]
+    return lo, hi
+
+
+def _rest_samples(track: Track, fits: list[SegmentFit], i: int, step: int) -> Points | None:
+    """Samples of ``track`` in its rest window next to segment i (None when it moves there)."""
+    window = _rest_window(track.name, fits, i, step)
+    if window is None:
+        return None
+    pts = _samples(track, *window)[1]
     return pts if len(pts) else None
+
+
+def _rest_orientation(times: FloatArray, quats: FloatArray, window: tuple[float, float]) -> FloatArray | None:
+    """Mean orientation (rotation matrix) of a rigid body over a rest window, None without samples."""
+    from scipy.spatial.transform import Rotation  # noqa: PLC0415
+
+    keep = (times >= window[0]) & (times < window[1])
+    if keep.sum() < MIN_SAMPLES:
+        return None
+    rots = Rotation.from_quat(quats[keep])
+    mean = rots.mean()
+    for _ in range(3):  # drop the slow start or stop of the motion left in the rest window
+        dist = (rots * mean.inv()).magnitude()
+        med = float(np.median(dist))
+        near = dist <= med + 3.0 * 1.4826 * float(np.median(np.abs(dist - med))) + 1e-9
+        if near.sum() < MIN_SAMPLES:
+            break
+        mean = rots[near].mean()
+    out: FloatArray = mean.as_matrix()
+    return out
+
+
+def _orientation_angle(
+    prep: PreparedRecording, fits: list[SegmentFit], i: int, axis_dir: FloatArray, coarse: float
+) -> float | None:
+    """Turn (rad) about ``axis_dir`` between the rest orientations of a rigid-body marker of segment i's part,
+    or None when no marker of the part has orientations at rest on both sides."""
+    from scipy.spatial.transform import Rotation  # noqa: PLC0415
+
+    angles = []
+    for name in fits[i].markers:
+        if name not in prep.orientations:
+            continue
+        times, quats = prep.orientations[name]
+        before = _rest_window(name, fits, i, -1)
+        after = _rest_window(name, fits, i, +1)
+        if before is None or after is None:
+            continue
+        r0 = _rest_orientation(times, quats, before)
+        r1 = _rest_orientation(times, quats, after)
+        if r0 is None or r1 is None:
+            continue
+        rotvec = Rotation.from_matrix(r1 @ r0.T).as_rotvec()
+        angles.append(float(np.dot(rotvec, axis_dir)))
+    if not angles:
+        return None
+    fine = float(np.mean(angles))
+    return fine + 2.0 * np.pi * round((coarse - fine) / (2.0 * np.pi))
 
 
 REST_TOLERANCE_SIGMAS = 3.0
@@ -239,7 +295,8 @@ def rest_position(samples: Points, sigma_m: float) -> FloatArray:
 
 def refine_extents(prep: PreparedRecording, fits: list[SegmentFit]) -> list[SegmentFit]:
     """Extents from the rest positions just before and just after each primitive (when the part is still there),
-    measured about / along the fitted axis; rotations of a part with two or more markers by Procrustes."""
+    measured about / along the fitted axis; the turn of a rotation from the rigid body's orientations where the
+    recording has them, else by Procrustes over two or more markers of the part."""
     by_name = {tr.name: tr for tr in prep.tracks}
     out = list(fits)
     for i, f in enumerate(fits):
@@ -276,8 +333,12 @@ def refine_extents(prep: PreparedRecording, fits: list[SegmentFit]) -> list[Segm
             net = float(np.average(nets, weights=wts))
             objects = [(b, a) for b, a, hand in rests if not hand]
             pairs = objects if len(objects) >= 2 else [(b, a) for b, a, _ in rests]
-            if f.kind == "rotation" and f.rotation is not None and len(pairs) >= 2:
-                net = _procrustes_angle(pairs, f.rotation.dir, net)
+            if f.kind == "rotation" and f.rotation is not None:
+                oriented = _orientation_angle(prep, fits, i, f.rotation.dir, net)
+                if oriented is not None:
+                    net = oriented
+                elif len(pairs) >= 2:
+                    net = _procrustes_angle(pairs, f.rotation.dir, net)
             out[i] = replace(f, extent=abs(net))
     return out
 

@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from tasks.arrays import FloatArray, Points, StampsNs
+from tasks.arrays import FloatArray, Points, Quats, StampsNs
 from tasks.errors import FitError
 from tasks.recording.load import PoseTrack, RecordingData
 from tasks.segment.tracks import Track, make_track
@@ -25,6 +25,8 @@ class PreparedRecording:
     tracks: tuple[Track, ...]
     hand: frozenset[str]
     warnings: tuple[str, ...]
+    orientations: dict[str, tuple[FloatArray, Quats]] = field(default_factory=dict)
+    """Rigid-body markers with poses: times (s since start) and quaternions [x, y, z, w], finite rows only."""
 
 
 def _interp_positions(stamps: StampsNs, positions: Points, at: StampsNs) -> Points:
@@ -81,4 +83,11 @@ def prepare(rec: RecordingData, sigma_floor_m: float, hand_pattern: str) -> Prep
     if not tracks:
         msg = "no marker has enough finite samples to fit (" + "; ".join(warnings) + ")"
         raise FitError(msg)
-    return PreparedRecording(tuple(tracks), frozenset(hand), tuple(warnings))
+    orientations: dict[str, tuple[FloatArray, Quats]] = {}
+    for name, pose in rec.poses.items():
+        ok = np.isfinite(pose.quats).all(axis=1) & (np.linalg.norm(pose.quats, axis=1) > 0.5)
+        if pose.role != "wrist" and ok.sum() >= MIN_SAMPLES:
+            order = np.argsort(pose.stamps_ns[ok], kind="stable")
+            t_s = (pose.stamps_ns[ok][order] - rec.start_ns).astype(np.float64) / 1e9
+            orientations[name] = (t_s, pose.quats[ok][order])
+    return PreparedRecording(tuple(tracks), frozenset(hand), tuple(warnings), orientations)

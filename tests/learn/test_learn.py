@@ -155,3 +155,28 @@ def test_spectral_k_larger_than_the_samples_is_an_error() -> None:
     pts = np.linspace(0.0, 0.3, 40)[:, None] * np.array([1.0, 0.0, 0.0])
     with pytest.raises(FitError, match=r"marker /m/a t=0.000..0.390 s: k=60 segments but only 40 samples"):
         learn_chain(_rec({"/m/a": _track("/m/a", pts)}), LearnParams.paper_baseline(k=60), RNG(0))
+
+
+def test_rigid_body_orientations_give_the_turn() -> None:
+    from scipy.spatial.transform import Rotation
+
+    from tasks.recording.load import PoseTrack
+
+    rng = RNG(12)
+    t = np.arange(0.0, 5.0, 0.01)
+    s = np.clip((t - 1.5) / 2.0, 0.0, 1.0)
+    angle = 2.5 * (10 * s**3 - 15 * s**4 + 6 * s**5)
+    axis_pos = np.array([0.3, -0.2, 0.9])
+    pts = axis_pos + np.column_stack([0.01 * np.cos(angle), 0.01 * np.sin(angle), np.zeros_like(t)])
+    pts += rng.normal(0.0, 0.0005, pts.shape)
+    quats = Rotation.from_rotvec(np.outer(angle, [0.0, 0.0, 1.0])) * Rotation.from_rotvec([0.002, 0.0, 0.0])
+    stamps = START_NS + np.round(t * 1e9).astype(np.int64)
+    name = "/mocap/cap_body"
+    rec = RecordingData(
+        "pose", Path("pose"), {"start_ns": START_NS}, {name: MarkerTrack(name, stamps, pts)},
+        {name: PoseTrack(name, "markers", stamps, pts, quats.as_quat())}, None, {},
+    )  # fmt: skip
+    (prim,) = learn_chain(rec, LearnParams(), RNG(0)).chain
+    assert prim.kind == "rotation"
+    assert abs(prim.extent - 2.5) < np.radians(0.2)
+    assert angle_between_axes(np.array(prim.dir), np.array([0.0, 0.0, 1.0])) < np.radians(2.0)
