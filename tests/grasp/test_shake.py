@@ -1,32 +1,41 @@
-"""Shake test: a wrapping grasp of a handle holds, an open hand drops it."""
+"""Shake test: a wrapping grasp of a box holds, an open hand drops it."""
 
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from schemas.descriptor import Grasp
-from tasks.arrays import Points
-from tasks.grasp.object_model import build_object_model
+from tasks.grasp.object_model import ObjectModel, build_object_model, sample_box_surface
 from tasks.grasp.shake import ShakeParams, shake_test
 
-from .conftest import HANDLE_CENTER, PALM_DOWN
+from .conftest import PALM_DOWN
+
+BOX_CENTER = np.array([0.5, 0.0, 0.3])
+BOX_HALF = np.array([0.025, 0.025, 0.04])
 
 
-def _grasp_on_top(a1: float, a2: float) -> Grasp:
-    pos = HANDLE_CENTER + np.array([0.0, 0.0, 0.0215])  # palm 1.5 mm above the 20 mm radius handle
+@pytest.fixture
+def box() -> ObjectModel:
+    """A 50 x 50 x 80 mm box (sampled surface points) standing at BOX_CENTER."""
+    rng = np.random.default_rng(0)
+    pts, _ = sample_box_surface(BOX_HALF, 3000, rng)
+    return build_object_model(pts + BOX_CENTER, rng)
+
+
+def _palm_on_top(a1: float, a2: float) -> Grasp:
+    pos = BOX_CENTER + np.array([0.0, 0.0, BOX_HALF[2] + 0.0015])  # palm 1.5 mm above the box top, looking down
     quat = (float(PALM_DOWN[0]), float(PALM_DOWN[1]), float(PALM_DOWN[2]), float(PALM_DOWN[3]))
     return Grasp("barrett", (a1, a2), (float(pos[0]), float(pos[1]), float(pos[2])), quat)
 
 
-def test_wrapping_grasp_holds(handle_points: tuple[Points, Points]) -> None:
-    model = build_object_model(handle_points[0], np.random.default_rng(0))
-    result = shake_test(model, _grasp_on_top(-1.13, -1.37))  # spread 0, fingers open, then closed to contact
+def test_wrapping_grasp_holds(box: ObjectModel) -> None:
+    result = shake_test(box, _palm_on_top(-1.13, -1.37))  # spread 0, flat open hand closed onto the sides
     assert result.holds
     assert result.max_shift_m < 0.005
 
 
-def test_open_hand_drops(handle_points: tuple[Points, Points]) -> None:
-    model = build_object_model(handle_points[0], np.random.default_rng(0))
-    result = shake_test(model, _grasp_on_top(-1.13, -1.37), ShakeParams(close=False))
+def test_open_hand_drops(box: ObjectModel) -> None:
+    result = shake_test(box, _palm_on_top(-1.13, -1.37), ShakeParams(close=False))
     assert not result.holds
     assert result.max_shift_m > 0.05  # it fell
