@@ -33,9 +33,14 @@ N_FLOATS: dict[str, int] = {
     "geometry_msgs/msg/PointStamped": 3,
     "geometry_msgs/msg/PoseStamped": 7,
     "geometry_msgs/msg/TransformStamped": 7,
+    "tf2_msgs/msg/TFMessage": 7,
+    "tf/msg/tfMessage": 7,
 }
 """Float64 count after the header(s) of each bulk-decodable type."""
-_TWO_STRINGS = {"geometry_msgs/msg/TransformStamped"}
+_TWO_STRINGS = {"geometry_msgs/msg/TransformStamped", "tf2_msgs/msg/TFMessage", "tf/msg/tfMessage"}
+_PREFIX = {"tf2_msgs/msg/TFMessage": 4, "tf/msg/tfMessage": 4}
+"""Bytes before the (first) stamped header: a TF message is a uint32 count, then TransformStamped items;
+only messages holding exactly one transform are bulk-decoded (the common tracker case)."""
 
 
 @dataclass(frozen=True)
@@ -49,6 +54,9 @@ class BulkResult:
     stamps_ns: IntArray
     values: F64Array
     rest: IntArray
+    children: tuple[str, ...] = ()
+    """Child frame ids (TransformStamped, TF): ``child_index`` points into this per decoded message."""
+    child_index: IntArray | None = None
 
 
 def _gather(arr: npt.NDArray[np.uint8], offsets: IntArray, nbytes: int) -> npt.NDArray[np.uint8]:
@@ -64,15 +72,19 @@ def bulk_decode(batch: Batch, msgtype: str, encoding: str) -> BulkResult:
     """Decode the messages of ``batch`` (type ``msgtype``, encoding ``cdr`` or ``ros1``) in bulk."""
     nf = N_FLOATS[msgtype]
     two = msgtype in _TWO_STRINGS
+    pre = _PREFIX.get(msgtype, 0)
     arr = np.frombuffer(batch.buf, dtype=np.uint8)
     n = len(batch)
     all_idx = np.arange(n, dtype=np.int64)
-    head = 16  # encapsulation + stamp + string length (CDR) or seq + stamp + string length (ROS 1)
+    # encapsulation (CDR) or seq (ROS 1), [TF count], stamp, frame id length
+    head = 16 + pre
     fits = batch.lengths >= head
     rest_parts: list[IntArray] = [all_idx[~fits]]
     idx_parts: list[IntArray] = []
     stamp_parts: list[IntArray] = []
     value_parts: list[F64Array] = []
+    child_parts: list[IntArray] = []
+    children: dict[bytes, int] = {}
     cand = all_idx[fits]
     off = batch.offsets[cand]
     lens = batch.lengths[cand]
@@ -84,12 +96,16 @@ def bulk_decode(batch: Batch, msgtype: str, encoding: str) -> BulkResult:
         heads = _gather(arr, off, head)
     if encoding == "cdr":
         ok = (heads[:, 0] == 0) & (heads[:, 1] == 1)
-        sec = heads[:, 4:8].copy().view("<i4").reshape(-1).astype(np.int64)
+        sec = heads[:, 4 + pre : 8 + pre].copy().view("<i4").reshape(-1).astype(np.int64)
+        if pre:
+            ok &= heads[:, 4:8].copy().view("<u4").reshape(-1) == 1
     else:
         ok = np.ones(len(cand), dtype=bool)
-        sec = heads[:, 4:8].copy().view("<u4").reshape(-1).astype(np.int64)
-    nsec = heads[:, 8:12].copy().view("<u4").reshape(-1).astype(np.int64)
-    slen = heads[:, 12:16].copy().view("<u4").reshape(-1).astype(np.int64)
+        sec = heads[:, 4 + pre : 8 + pre].copy().view("<u4").reshape(-1).astype(np.int64)
+        if pre:
+            ok &= heads[:, 0:4].copy().view("<u4").reshape(-1) == 1
+    nsec = heads[:, 8 + pre : 12 + pre].copy().view("<u4").reshape(-1).astype(np.int64)
+    slen = heads[:, 12 + pre : 16 + pre].copy().view("<u4").reshape(-1).astype(np.int64)
     rest_parts.append(cand[~ok])
     keep = ok
     cand, off, sec, nsec, slen = cand[keep], off[keep], sec[keep], nsec[keep], slen[keep]
@@ -104,7 +120,7 @@ def bulk_decode(batch: Batch, msgtype: str, encoding: str) -> BulkResult:
         L = int(lengths[sel[0]])
         s = int(slen[sel[0]])
         g_idx, g_off = cand[sel], off[sel]
-        pos = 16 + s  # end of the frame id chars, from the payload start
+        pos = 16 + pre + s  # end of the frame id chars, from the payload start
         if encoding == "cdr":
             if two:
                 pos = 4 + ((pos - 4 + 3) // 4) * 4
@@ -138,6 +154,14 @@ def bulk_decode(batch: Batch, msgtype: str, encoding: str) -> BulkResult:
             idx_parts.append(g_idx[sub])
             stamp_parts.append(sec[sel][sub] * 1_000_000_000 + nsec[sel][sub])
             value_parts.append(vals.astype(np.float64))
+            if child_len >= 0:  # child frame ids: distinct byte strings of this group
+                if child_len == 0:
+                    child_parts.append(np.full(len(sub), children.setdefault(b"", len(children)), dtype=np.int64))
+                else:
+                    raw = _gather(arr, g_off[sub] + pos + 4, child_len)
+                    names, inverse = np.unique(raw, axis=0, return_inverse=True)
+                    ids = np.asarray([children.setdefault(r.tobytes(), len(children)) for r in names], dtype=np.int64)
+                    child_parts.append(ids[inverse.reshape(-1)])
     if idx_parts:
         index = np.concatenate(idx_parts)
         stamps = np.concatenate(stamp_parts)
@@ -147,4 +171,8 @@ def bulk_decode(batch: Batch, msgtype: str, encoding: str) -> BulkResult:
         stamps = np.zeros(0, dtype=np.int64)
         values = np.zeros((0, nf), dtype=np.float64)
     rest = np.sort(np.concatenate(rest_parts)) if rest_parts else np.zeros(0, dtype=np.int64)
-    return BulkResult(index, stamps, values, rest.astype(np.int64))
+    if not two:
+        return BulkResult(index, stamps, values, rest.astype(np.int64))
+    child_names = tuple(b.rstrip(b"\x00").decode("utf-8", errors="replace") for b in children)
+    child_index = np.concatenate(child_parts) if child_parts else np.zeros(0, dtype=np.int64)
+    return BulkResult(index, stamps, values, rest.astype(np.int64), child_names, child_index)

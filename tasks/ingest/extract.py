@@ -120,15 +120,22 @@ def _fixed_rows(topic: RawTopic, path: str) -> tuple[IntArray, F64Array]:
 
 
 def child_frames(topic: RawTopic, path: str) -> set[str]:
-    """Child frame ids of a TransformStamped / TFMessage topic (decodes its messages)."""
+    """Child frame ids of a TransformStamped / TFMessage topic (bulk where the layout allows)."""
     frames: set[str] = set()
-    if topic.msgtype == rl.TRANSFORM:
-        for _log, msg in decode_topic(topic, path, {0: [0]} if topic.batches else {}):
+    rest: dict[int, Any] = {}
+    for b, batch in enumerate(topic.batches):
+        if topic.encoding in ("cdr", "ros1"):
+            res = bulk_decode(batch, topic.msgtype, topic.encoding)
+            frames.update(res.children)
+            if len(res.rest):
+                rest[b] = res.rest
+        else:
+            rest[b] = np.arange(len(batch))
+    for _log, msg in decode_topic(topic, path, rest):
+        if topic.msgtype == rl.TRANSFORM:
             frames.add(str(_get(msg, "child_frame_id")))
-        return frames
-    for _log, msg in decode_topic(topic, path):
-        for tf in _get(msg, "transforms"):
-            frames.add(str(_get(tf, "child_frame_id")))
+        else:
+            frames.update(str(_get(tf, "child_frame_id")) for tf in _get(msg, "transforms"))
     return frames
 
 
@@ -189,7 +196,7 @@ def _extract(topic: RawTopic, role: str, path: str, out: Extracted) -> None:
         if topic.count > 1:
             out.warnings.append(f"{path} topic {name}: {topic.count} object clouds, kept the first")
         return
-    if typ in N_FLOATS and role in (rl.MARKERS, rl.WRIST):
+    if typ in (rl.POINT, rl.POSE, rl.TRANSFORM) and role in (rl.MARKERS, rl.WRIST):
         stamps, vals = _fixed_rows(topic, path)
         if typ == rl.POINT:
             out.markers.append(MarkerChunk(name, stamps, vals[:, :3]))
@@ -201,7 +208,26 @@ def _extract(topic: RawTopic, role: str, path: str, out: Extracted) -> None:
     if typ in (rl.TF, rl.TF_LEGACY):
         tf_rows: dict[str, tuple[list[int], list[tuple[float, ...]]]] = {}
         all_wrist = "wrist" in name.lower()
-        for log_ns, msg in decode_topic(topic, path):
+        bulk_parts: list[tuple[str, IntArray, F64Array]] = []
+        rest: dict[int, Any] = {}
+        for b, batch in enumerate(topic.batches):
+            if topic.encoding not in ("cdr", "ros1"):
+                rest[b] = np.arange(len(batch))
+                continue
+            res = bulk_decode(batch, typ, topic.encoding)
+            if len(res.rest):
+                rest[b] = res.rest
+            assert res.child_index is not None
+            st = np.where(res.stamps_ns != 0, res.stamps_ns, batch.log_ns[res.index])
+            for k, child in enumerate(res.children):
+                if all_wrist or "wrist" in child.lower():
+                    sel = res.child_index == k
+                    bulk_parts.append((child, st[sel], res.values[sel]))
+        for child, st_, vals in bulk_parts:
+            ts, tv = tf_rows.setdefault(child, ([], []))
+            ts.extend(st_.tolist())
+            tv.extend(map(tuple, vals.tolist()))
+        for log_ns, msg in decode_topic(topic, path, rest):
             for tf in _get(msg, "transforms"):
                 child = str(_get(tf, "child_frame_id"))
                 if not all_wrist and "wrist" not in child.lower():

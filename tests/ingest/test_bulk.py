@@ -198,3 +198,58 @@ def test_reingest_with_another_object_model_warns(tmp_path: Path, store: Store) 
     assert again.warnings == (
         f"{rec_path}: already ingested as {first.recording_id} with another object model; kept the stored one",
     )
+
+
+@pytest.mark.parametrize("encoding", ["cdr", "ros1"])
+def test_bulk_tf_single_transform(encoding: str) -> None:
+    """TFMessage with one transform per message is bulk-decoded, child frame ids included; two go general."""
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    ros1 = encoding == "ros1"
+    store = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
+    typ = "tf2_msgs/msg/TFMessage"
+    if typ not in store.fielddefs:
+        store.register(get_types_from_msg("geometry_msgs/TransformStamped[] transforms\n", typ))
+    rng = np.random.default_rng(9)
+    items = _messages(store, "geometry_msgs/msg/TransformStamped", 200, ros1, rng)
+    children = ["l_wrist", "r_wrist", "base", "b"]
+    payloads = []
+    for i, (m, _, _) in enumerate(items):
+        m.child_frame_id = children[i % 4]
+        tfs = [m] if i % 10 else [m, m]  # every tenth message holds two transforms
+        ser = store.serialize_ros1 if ros1 else store.serialize_cdr
+        payloads.append(bytes(ser(store.types[typ](transforms=tfs), typ)))
+    batch = Batch.from_payloads(payloads, list(range(200)))
+    res = bulk_decode(batch, typ, encoding)
+    np.testing.assert_array_equal(res.rest, np.arange(0, 200, 10))
+    assert res.child_index is not None
+    for j, i in enumerate(res.index.tolist()):
+        assert res.children[int(res.child_index[j])] == children[i % 4]
+        assert res.stamps_ns[j] == items[i][1]
+        np.testing.assert_array_equal(res.values[j], items[i][2])
+
+
+def test_tf_wrist_through_ingest(tmp_path: Path, store: Store) -> None:
+    """A /tf topic of single-transform messages (bulk path): the wrist child frame becomes the wrist pose."""
+    from rosbags.rosbag2 import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    ts = get_typestore(Stores.ROS2_HUMBLE)
+    items = _messages(ts, "geometry_msgs/msg/TransformStamped", 60, False, np.random.default_rng(12))
+    path = tmp_path / "tfbag"
+    with Writer(path, version=9) as w:
+        conn = w.add_connection("/tf", "tf2_msgs/msg/TFMessage", typestore=ts)
+        for i, (m, ns, _) in enumerate(items):
+            m.child_frame_id = "hand_wrist" if i % 2 else "base"
+            w.write(
+                conn,
+                ns,
+                bytes(ts.serialize_cdr(ts.types["tf2_msgs/msg/TFMessage"](transforms=[m]), "tf2_msgs/msg/TFMessage")),
+            )
+    rec = load_recording(store, ingest_recording(path, store).recording_id)
+    wrist = rec.poses["hand_wrist"]
+    assert wrist.role == "wrist"
+    assert "base" not in rec.poses
+    expect = sorted((ns, tuple(v)) for i, (_, ns, v) in enumerate(items) if i % 2)
+    np.testing.assert_array_equal(wrist.stamps_ns, [e[0] for e in expect])
+    np.testing.assert_array_equal(np.hstack([wrist.positions, wrist.quats]), [e[1] for e in expect])
