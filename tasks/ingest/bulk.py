@@ -14,7 +14,9 @@ Layouts (offsets in bytes from the payload start):
 - ROS 1: uint32 seq, uint32 secs, uint32 nsecs, uint32 frame_id length n, n chars (no NUL); for
   TransformStamped uint32 child length and chars; then the float64s (no padding).
 
-Messages that fit no layout (big endian, short, odd) are reported back for the general decoder.
+A ``TFMessage`` holding exactly one transform is a uint32 count (1) followed by one TransformStamped, so
+it is read the same way four bytes further on, with its child frame id. Messages that fit no layout (big
+endian, several transforms, short, odd) are reported back for the general decoder.
 """
 
 from __future__ import annotations
