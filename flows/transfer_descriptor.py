@@ -1,0 +1,52 @@
+"""Flow ``transfer-descriptor``: a stored descriptor onto another object model → store → simulate → report."""
+
+from __future__ import annotations
+
+from prefect import flow
+
+from flows.caching import on_store
+from flows.summary import RunSummary, summarise
+from tasks.diff.task import diff_task
+from tasks.learn.task import store_descriptor_task
+from tasks.report.refs import EntryResult
+from tasks.report.task import report_task
+from tasks.simulate.task import simulate_task
+from tasks.store import resolve_store_root
+from tasks.transfer.task import resolve_descriptor_task, target_model_task, transfer_task
+
+
+@flow(name="transfer-descriptor", persist_result=False)
+def transfer_descriptor_flow(
+    descriptor: str,
+    to: str,
+    *,
+    store: str | None = None,
+    name: str | None = None,
+    whole: bool = False,
+    crop_radius_m: float | None = None,
+    strict: bool = False,
+    replan_grasp: bool = False,
+    seed: int = 0,
+    report: bool = True,
+) -> RunSummary:
+    """Carry ``descriptor`` (path, id or ``name@vN``) to the model ``to`` (model file, recording or its id)."""
+    root = str(resolve_store_root(store).resolve())
+    source = resolve_descriptor_task(root, descriptor)
+    target = target_model_task(root, to, seed=seed)
+    carried = on_store(transfer_task, root)(
+        root, source, target, name=name, whole=whole, crop_radius_m=crop_radius_m, strict=strict,
+        replan_grasp=replan_grasp, seed=seed,
+    )  # fmt: skip
+    stored = store_descriptor_task(root, carried)
+    simulated = on_store(simulate_task, root)(root, stored)
+    diff = on_store(diff_task, root)(root, stored)
+    chain = " → ".join(p.kind for p in carried.chain) or "(empty)"
+    entry = EntryResult(
+        source=f"{descriptor} → {to}",
+        descriptor=stored,
+        simulation=simulated,
+        diff=diff,
+        extra={"chain": chain, "parent": source.ref if source.version else source.id},
+    )
+    html = report_task(root, f"transfer-descriptor {source.name} → {target.object_name}", [entry]) if report else None
+    return summarise([entry], html)

@@ -1,0 +1,48 @@
+"""Flow ``transfer-descriptor``: a stored descriptor carried onto a moved, scaled copy of its object model."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from flows.transfer_descriptor import transfer_descriptor_flow
+from schemas.descriptor import Descriptor, ObjectRef, Primitive
+from tasks.store import Store
+
+HINGE = np.array([0.5, 0.0, 1.0])
+
+
+def _door_model(rng: np.random.Generator) -> np.ndarray:
+    """A door leaf with a handle (metres, world frame): asymmetric enough to register uniquely."""
+    leaf = np.column_stack([rng.uniform(0, 0.6, 3000), rng.uniform(-0.01, 0.01, 3000), rng.uniform(-0.4, 0.4, 3000)])
+    handle = np.column_stack(
+        [rng.uniform(0.5, 0.55, 400), rng.uniform(-0.08, -0.01, 400), rng.uniform(-0.05, 0.05, 400)]
+    )
+    return np.vstack([leaf, handle]) + HINGE
+
+
+def test_transfer_carries_the_axis_and_records_the_parent(prefect_harness: None, tmp_path: Path) -> None:
+    store = Store(tmp_path / "store")
+    model = _door_model(np.random.default_rng(0))
+    sha, path = store.put_model(model)
+    chain = (Primitive("rotation", tuple(HINGE), (0.0, 0.0, 1.0), 1.2, 0.5, 2.5),)
+    source = store.put_descriptor(
+        Descriptor("open-door", "open", ObjectRef("door", sha, len(model), str(path)), None, chain)
+    )
+    yaw = 0.3
+    rot = np.array([[np.cos(yaw), -np.sin(yaw), 0.0], [np.sin(yaw), np.cos(yaw), 0.0], [0.0, 0.0, 1.0]])
+    offset, scale = np.array([2.0, 1.0, 0.9]), 1.1
+    np.save(tmp_path / "cupboard.npy", (model - model.mean(axis=0)) @ rot.T * scale + offset)
+
+    summary = transfer_descriptor_flow("open-door@v1", str(tmp_path / "cupboard.npy"), store=str(store.root))
+
+    (entry,) = summary["entries"]
+    assert entry["descriptor"] == "open-door-to-cupboard@v1"
+    carried = store.load("open-door-to-cupboard@v1")
+    assert carried.parent == source.id
+    expected_pos = rot @ (HINGE - model.mean(axis=0)) * scale + offset
+    np.testing.assert_allclose(carried.chain[0].pos, expected_pos, atol=0.01)  # type: ignore[arg-type]
+    np.testing.assert_allclose(np.abs(carried.chain[0].dir), [0.0, 0.0, 1.0], atol=0.01)
+    assert entry["simulation_skipped"] is not None or entry["simulation_success"] is not None
+    assert summary["report"] is not None and Path(summary["report"]).is_file()
