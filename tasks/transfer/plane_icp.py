@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from tasks.arrays import Points
+from tasks.arrays import FloatArray, Points
 from tasks.transfer.similarity import Similarity
 
 NORMAL_AGREEMENT_DEG = 25.0
@@ -46,8 +46,11 @@ def plane_similarity_icp(
     iterations: int = 30,
     with_scale: bool = True,
     min_matches: int = 12,
+    weights: FloatArray | None = None,
 ) -> Similarity:
-    """Refine ``init`` (source -> target, metres) by point-to-plane ICP with scale; ``init`` when it cannot."""
+    """Refine ``init`` (source -> target, metres) by point-to-plane ICP with scale; ``init`` when it cannot.
+
+    ``weights``: (n,) per source point (default 1), multiplied into the Huber weights."""
     tree = cKDTree(target)
     current = init
     huber = max_distance_m / 3.0
@@ -58,15 +61,16 @@ def plane_similarity_icp(
         if int(ok.sum()) < min_matches:
             return current
         p, q, n = moved[ok], target[idx[ok]], target_normals[idx[ok]]
-        centre = p.mean(axis=0)
+        prior = weights[ok] if weights is not None else np.ones(len(p))
+        centre = (p * prior[:, None]).sum(axis=0) / prior.sum()
         pc = p - centre
         residual = np.einsum("ij,ij->i", n, q - p)
         cols = [np.cross(pc, n), n]
         if with_scale:
             cols.append(np.einsum("ij,ij->i", n, pc)[:, None])
         a = np.hstack(cols)
-        weights = np.minimum(1.0, huber / np.maximum(np.abs(residual), 1e-12))
-        aw = a * weights[:, None]
+        w = prior * np.minimum(1.0, huber / np.maximum(np.abs(residual), 1e-12))
+        aw = a * w[:, None]
         try:
             x = np.linalg.solve(aw.T @ a + 1e-12 * np.eye(a.shape[1]), aw.T @ residual)
         except np.linalg.LinAlgError:

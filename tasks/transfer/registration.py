@@ -51,7 +51,7 @@ class RegistrationParams:
 
     crop_radius_m: float | None = None
     """Radius of the functional region around each focus point; None: ``auto_crop_frac`` x source diagonal."""
-    auto_crop_frac: float = 0.25
+    auto_crop_frac: float = 0.18
     whole: bool = False
     """Align the whole source model instead of its functional region."""
     fine_voxel_frac: float = 1.0 / 150.0
@@ -71,6 +71,9 @@ class RegistrationParams:
     """Below this fraction of inlier pairs with agreeing surface normals it is poor (random clouds: about 0.2;
     good fits of the benchmark's partial scans: 0.75 and above)."""
     min_crop_points: int = 150
+    context_weight: float = 0.3
+    """Total weight of the rest of the model against the functional part's in the final refinement (0: the
+    functional part alone)."""
     max_crop_rescale: float = 1.5
     """The functional-part refinement may change the whole-model scale by at most this factor (else rigid)."""
 
@@ -222,17 +225,26 @@ def _similarity_icp(
 
 
 def _refine_planar(
-    source: Points, target: Points, normals: Points, start: Similarity, *, threshold: float, max_rescale: float
+    source: Points,
+    target: Points,
+    normals: Points,
+    start: Similarity,
+    *,
+    threshold: float,
+    max_rescale: float,
+    weights: FloatArray | None = None,
 ) -> Similarity:
     """Point-to-plane similarity ICP over shrinking distances; rigid when the scale runs away from ``start``."""
     fitted = start
     for dist in (4.0 * threshold, 2.0 * threshold, threshold):
-        fitted = plane_similarity_icp(source, target, normals, fitted, dist, iterations=25)
+        fitted = plane_similarity_icp(source, target, normals, fitted, dist, iterations=25, weights=weights)
     if abs(math.log(fitted.scale / start.scale)) <= math.log(max_rescale):
         return fitted
     fitted = start
     for dist in (4.0 * threshold, 2.0 * threshold, threshold):
-        fitted = plane_similarity_icp(source, target, normals, fitted, dist, iterations=25, with_scale=False)
+        fitted = plane_similarity_icp(
+            source, target, normals, fitted, dist, iterations=25, with_scale=False, weights=weights
+        )
     return fitted
 
 
@@ -378,6 +390,15 @@ def register_models(
     src_spacing = float(np.median(np.asarray(_cloud(src).compute_nearest_neighbor_distance())))
     used_cloud = _with_normals(_cloud(used), max(2.0 * fine_voxel / kept[0][1].scale, 3.0 * src_spacing))
     raw_normals = np.asarray(used_cloud.normals, dtype=np.float64)[pick]
+    # the functional part leads the final refinement; the rest of the model keeps it from tilting where the
+    # part alone is ambiguous (a cap seen from one side), with ``context_weight`` of the part's total weight
+    refine_points, refine_weights = raw_sample, None
+    if crop_radius is not None and params.context_weight > 0.0:
+        context = src[rng.permutation(src.shape[0])[:PLANE_ICP_POINTS]]
+        refine_points = np.vstack([raw_sample, context])
+        refine_weights = np.concatenate(
+            [np.ones(len(raw_sample)), np.full(len(context), params.context_weight * len(raw_sample) / len(context))]
+        )
     alignments: list[Alignment] = []
     for name, start in kept:
         whole_mid = _downsample(src, mid_voxel / start.scale)
@@ -390,7 +411,13 @@ def register_models(
         if crop_radius is not None and focus is not None:
             used_fine = _downsample(used, fine_voxel / fitted.scale)
         fitted = _refine_planar(
-            raw_sample, tgt, tgt_normals, fitted, threshold=threshold, max_rescale=params.max_crop_rescale
+            refine_points,
+            tgt,
+            tgt_normals,
+            fitted,
+            threshold=threshold,
+            max_rescale=params.max_crop_rescale,
+            weights=refine_weights,
         )
         if crop_radius is not None and focus is not None:
             centres = fitted.apply_points(check_points(focus, "focus"))

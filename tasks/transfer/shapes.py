@@ -230,9 +230,13 @@ def mug(rng: np.random.Generator, *, n: int = 6000, radius: float = 0.04, height
     return ShapeModel("mug", pts, nrm, pos, np.array([0.0, 0.0, 1.0]), "rotation", focus)
 
 
-def random_shape(rng: np.random.Generator, n: int = 6000) -> ShapeModel:
-    """One of the shapes above with random proportions."""
-    kind = ("bottle", "jar", "cabinet", "drawer", "mug")[int(rng.integers(0, 5))]
+SHAPE_KINDS = ("bottle", "jar", "cabinet", "drawer", "mug")
+
+
+def random_shape(rng: np.random.Generator, n: int = 6000, kind: str | None = None) -> ShapeModel:
+    """One of the shapes above (``kind``, else a random one) with random proportions."""
+    if kind is None:
+        kind = SHAPE_KINDS[int(rng.integers(0, len(SHAPE_KINDS)))]
 
     def u(lo: float, hi: float) -> float:
         return float(rng.uniform(lo, hi))
