@@ -62,6 +62,29 @@ def _finger_dofs(a1: float, a2: float) -> list[float] | None:
     return None if fn is None else [float(v) for v in np.asarray(fn(a1, a2)).ravel()]
 
 
+def _hand_lines(grasp: Any) -> list[Any] | None:
+    """The Barrett hand's three fingers as world polylines (knuckle → joints → tip, metres) at the grasp."""
+    try:
+        barrett = importlib.import_module("tasks.grasp.barrett")
+    except ImportError:
+        return None
+    needed = ("dofs_from_eigengrasps", "joint_positions", "link_transforms", "DISTAL_LENGTH")
+    if not all(hasattr(barrett, n) for n in needed):
+        return None
+    from tasks.report.plots import quat_to_matrix  # noqa: PLC0415
+
+    tfs = barrett.link_transforms(barrett.joint_positions(barrett.dofs_from_eigengrasps(*grasp.eigengrasps)))
+    rot = quat_to_matrix(grasp.wrist_orientation)
+    pos = np.asarray(grasp.wrist_position)
+    lines = []
+    for k in range(3):
+        knuckle, prox, dist = tfs[3 * k + 1], tfs[3 * k + 2], tfs[3 * k + 3]
+        tip = dist @ np.array([0.0, 0.0, float(barrett.DISTAL_LENGTH), 1.0])
+        pts_palm = np.stack([np.zeros(3), knuckle[:3, 3], prox[:3, 3], dist[:3, 3], tip[:3]])
+        lines.append(pts_palm @ rot.T + pos)
+    return lines
+
+
 def _entry_section(store: Store, entry: EntryResult, folder: Path, mcaps: list[Path]) -> str:
     """Plots and tables of one recording; writes its PNGs and axes MCAP into ``folder``."""
     from tasks.recording.load import load_recording  # noqa: PLC0415
@@ -118,7 +141,8 @@ def _entry_section(store: Store, entry: EntryResult, folder: Path, mcaps: list[P
     if desc.grasp is not None:
         model = rec.object_model if rec is not None else None
         dofs = _finger_dofs(*desc.grasp.eigengrasps)
-        img = _save(plots.grasp_figure(desc.grasp, model, dofs), folder / f"{stem}-grasp.png")
+        fig = plots.grasp_figure(desc.grasp, model, dofs, _hand_lines(desc.grasp))
+        img = _save(fig, folder / f"{stem}-grasp.png")
         parts.append(f"<h3>planned grasp</h3><img src='{img}'>")
     else:
         parts.append("<h3>planned grasp</h3><p>none (no object model or no grasp planned)</p>")

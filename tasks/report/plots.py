@@ -25,6 +25,9 @@ AXIS_HALF_LENGTH_M = 0.15
 MAX_CLOUD_POINTS = 1500
 """Object model points drawn at most (a regular subsample), to keep the PNGs small."""
 
+GRASP_VIEW_RADIUS_M = 0.2
+"""Object points within this distance of the hand are drawn in the grasp view, metres (the hand spans ~0.25 m)."""
+
 KIND_COLOURS = {"rotation": "tab:red", "translation": "tab:blue"}
 
 
@@ -186,24 +189,32 @@ def quat_to_matrix(quat_xyzw: Sequence[float]) -> FloatArray:
     )
 
 
-def grasp_figure(grasp: Grasp, object_points: Points | None, finger_dofs_rad: Sequence[float] | None = None) -> Figure:
-    """The planned grasp: object model points, the hand base frame (x red, y green, z blue = approach) and
-    the eigengrasp amplitudes, qualities and finger joint angles as text."""
+def grasp_figure(
+    grasp: Grasp,
+    object_points: Points | None,
+    finger_dofs_rad: Sequence[float] | None = None,
+    hand_lines: Sequence[Points] | None = None,
+) -> Figure:
+    """The planned grasp: object model points, the hand base frame (x red, y green, z blue = approach), the
+    hand's fingers as polylines (world, metres) when given, and the eigengrasps, qualities and dofs as text."""
     fig = plt.figure(figsize=(6.0, 5.5))
     ax = fig.add_subplot(projection="3d")
     pos = np.asarray(grasp.wrist_position)
     every = [pos[None, :]]
     if object_points is not None and len(object_points):
-        step = max(1, len(object_points) // MAX_CLOUD_POINTS)
-        pts = object_points[::step]
+        near = object_points[np.linalg.norm(object_points - pos, axis=1) < GRASP_VIEW_RADIUS_M]
+        step = max(1, len(near) // MAX_CLOUD_POINTS)
+        pts = near[::step]
         ax.scatter(pts[:, 0], pts[:, 1], pts[:, 2], s=1, color="0.55")
-        every.append(pts)
     rot = quat_to_matrix(grasp.wrist_orientation)
     size = 0.08
     for k, colour in enumerate(("red", "green", "blue")):
         axis = rot[:, k] * size
         ax.quiver(*pos, *axis, color=colour, lw=2.5, arrow_length_ratio=0.2)
         every.append((pos + axis)[None, :])
+    for line in hand_lines or ():
+        ax.plot(line[:, 0], line[:, 1], line[:, 2], color="black", lw=2.5, marker="o", ms=2)
+        every.append(line)
     _set_equal_3d(ax, np.concatenate(every))
     a1, a2 = grasp.eigengrasps
     lines = [f"hand {grasp.hand}", f"eigengrasps a1={a1:.3f} a2={a2:.3f}"]
