@@ -13,6 +13,7 @@ import dataclasses
 from typing import Any
 
 import numpy as np
+import pyarrow.parquet as pq
 from prefect import task
 from prefect.cache_policies import NO_CACHE
 from prefect.context import TaskRunContext
@@ -20,6 +21,7 @@ from prefect.context import TaskRunContext
 from flows.caching import RETRIES, RETRY_DELAY_S, retry_on_transient_io, stage_key
 from flows.cli_args import ParameterError
 from schemas.descriptor import Descriptor
+from schemas.tables import OBJECT_MODEL_FILE
 from tasks.learn.api import learn_descriptor
 from tasks.learn.params import LearnParams
 from tasks.recording.load import load_recording
@@ -88,8 +90,9 @@ def store_descriptor_task(store_root: str, descriptor: Descriptor) -> Descriptor
     store = Store(store_root)
     sha = descriptor.object.model_sha256
     if sha and descriptor.recording_id and not (store.models_dir / f"{sha}.parquet").is_file():
-        model = load_recording(store, descriptor.recording_id).object_model
-        if model is not None:
-            store.put_model(model)
+        model_file = store.recording_dir(descriptor.recording_id) / OBJECT_MODEL_FILE
+        if model_file.is_file():  # the object model alone, not the whole recording
+            table = pq.read_table(model_file)
+            store.put_model(np.column_stack([table.column(c).to_numpy() for c in ("x", "y", "z")]))
     put = store.put_descriptor(descriptor)
     return DescriptorRef(put.name, put.version, put.id, str(put.path), put.created)

@@ -71,7 +71,7 @@ def test_unchanged_archive_does_no_stage_work_and_a_parameter_reruns_learning_on
 def test_process_recording_names_by_meta_and_leaves_artifacts(prefect_harness: None, tmp_path: Path) -> None:
     from prefect.client.orchestration import get_client
 
-    source = write_door_recording(tmp_path / "demo.bag", "bag", 1.1, with_model=False)
+    source = write_door_recording(tmp_path / "demo.bag", "bag", 1.1)  # with an object model: a grasp is planned
     store = tmp_path / "store"
     summary = process_recording(str(source), store=str(store))
     (entry,) = summary["entries"]
@@ -79,12 +79,17 @@ def test_process_recording_names_by_meta_and_leaves_artifacts(prefect_harness: N
     desc = Store(store).load("open-door@latest")
     assert [p.kind for p in desc.chain] == ["rotation"]
     assert abs(desc.chain[0].extent - 1.1) < 0.05
+    assert desc.object.model_sha256 is not None
+    assert (Store(store).models_dir / f"{desc.object.model_sha256}.parquet").is_file()  # stored with it
     with get_client(sync_client=True) as client:
         md = client.read_latest_artifacts()
     by_key = {a.key: a for a in md}
     assert "open-door@v1" in str(by_key["pbd-run-summary"].data)
     report = Path(summary["report"] or "")
     assert report.is_file()
+    if desc.grasp is not None:
+        assert (report.parent / "open-door-v1-grasp.png").is_file()
+    assert (report.parent / "open-door-v1-axes.mcap").is_file()
     assert f"({report.resolve().as_uri()})" in str(by_key["pbd-report"].data)
 
 
