@@ -148,8 +148,8 @@ def timeline_figure(desc: Descriptor, duration_s: float) -> Figure:
 
 
 def model_selection_figure(desc: Descriptor) -> Figure:
-    """Model selection per segment: the chosen model's RMS residual and, when the fit records them, the
-    information criterion of each candidate model (lower is better)."""
+    """Model selection per segment: each candidate model's cost (the fit's ``scores``, BIC in nats) above the
+    chosen one (0 = chosen), or the chosen model's RMS residual when the fit records no scores."""
     fig, ax = plt.subplots(figsize=(7.0, 3.0))
     colours = segment_colours(len(desc.chain))
     scores: list[Mapping[str, float]] = []
@@ -160,10 +160,11 @@ def model_selection_figure(desc: Descriptor) -> Figure:
     if models:
         width = 0.8 / len(models)
         for j, model in enumerate(models):
-            xs = [i + j * width for i, s in enumerate(scores) if model in s]
-            ys = [s[model] for s in scores if model in s]
+            xs = [i + j * width - 0.4 + width / 2 for i, s in enumerate(scores) if model in s]
+            ys = [s[model] - min(s.values()) for s in scores if model in s]
             ax.bar(xs, ys, width=width, label=model)
-        ax.set_ylabel("BIC (lower wins)")
+        ax.set_ylabel("cost above the chosen model (BIC, nats)")
+        ax.set_yscale("symlog", linthresh=10.0)
         ax.legend(fontsize=8)
     else:
         rms_mm = [1000 * float(p.fit.get("rms_m", 0.0)) for p in desc.chain]
