@@ -81,3 +81,19 @@ def test_retry_condition_reads_the_failed_state() -> None:
 
     assert retry_on_transient_io(None, None, Failed(data=TimeoutError("nfs timeout")))  # type: ignore[arg-type]
     assert not retry_on_transient_io(None, None, Failed(data=StoreError("x", "bad")))  # type: ignore[arg-type]
+
+
+def test_pbd_archive_refuses_a_missing_folder_before_starting_prefect(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from tasks.cli import main
+
+    assert main(["archive", str(tmp_path / "missing"), "--store", str(tmp_path / "store")]) == 2
+    assert "not a folder of recordings" in capsys.readouterr().err
+
+
+def test_pbd_archive_refuses_a_malformed_param(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from tasks.cli import main
+
+    assert main(["archive", str(tmp_path), "--param", "t0"]) == 2
+    assert "--param 't0': expected KEY=VALUE" in capsys.readouterr().err
