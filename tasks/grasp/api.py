@@ -2,7 +2,8 @@
 
 The demonstrator's wrist tracker pose (world frame, metres, quaternion [x, y, z, w]) is turned into a seed palm
 pose through the sensor-to-palm offset; the planner (``planner.py``) searches Barrett eigengrasp amplitudes and
-a palm pose near it and returns the force-closure grasp closest to the seed. ``Grasp.wrist_*`` is the pose of
+a palm pose near it and returns the force-closure grasp closest to the seed (of the five closest, the first
+that holds the part under a quick shake test). ``Grasp.wrist_*`` is the pose of
 the hand base (palm) frame of ``barrett.py`` in the world, +z the approach direction; ``Grasp.eigengrasps`` is
 the pre-grasp posture (a1, a2): execute by placing the hand there and closing the fingers until contact
 (``closing.close_fingers``). ``quality`` holds epsilon, volume, force_closure, the contact count and the closed
@@ -23,11 +24,14 @@ from tasks.arrays import FloatArray, Points, Vector3
 from tasks.errors import GraspError
 from tasks.grasp.object_model import ObjectModel, build_object_model, check_object_points, crop_points
 from tasks.grasp.planner import GraspCandidate, PlannerParams, rank_tier, search
+from tasks.grasp.shake import QUICK_SHAKE, shake_test
 from tasks.recording.load import PoseTrack
 
 HAND = "barrett"
 CROP_RADIUS_M = 0.15
 """Object points farther than this from the part nearest the seed palm are left out (the part to grasp)."""
+SHAKE_CHECKS = 5
+"""Force-closure candidates (in rank order) given the quick shake test before settling for the first."""
 ROUNDS = 2
 """Annealing rounds tried before giving up on force closure (a second one only when the first found none)."""
 
@@ -121,16 +125,24 @@ def plan_on_model(
     seed_quat_xyzw: FloatArray,
     rng: np.random.Generator,
     params: PlannerParams | None = None,
+    *,
+    shake_checks: int = SHAKE_CHECKS,
 ) -> GraspCandidate:
-    """Best candidate on a built model from a palm seed: force closure closest to the seed, else best epsilon."""
+    """Best candidate on a built model from a palm seed: the force-closure grasps in rank order (epsilon tier,
+    then closeness to the seed), the first of up to ``shake_checks`` that holds under ``QUICK_SHAKE`` (else the
+    first); without force closure, the best-ranked candidate of all rounds."""
     pos, quat = _check_seed(seed_position, seed_quat_xyzw)
     seed_rot = Rotation.from_quat(quat).as_matrix()
     tried: list[GraspCandidate] = []
     for _ in range(ROUNDS):
         found = search(model, seed_rot, pos, rng, params)
         tried += found
-        if found and rank_tier(found[0].quality) < 2:
-            return found[0]
+        closure = [c for c in found if rank_tier(c.quality) < 2]
+        if closure:
+            for cand in closure[:shake_checks]:
+                if shake_test(model, grasp_from_candidate(cand), QUICK_SHAKE).holds:
+                    return cand
+            return closure[0]
     if not tried:
         msg = "no collision-free grasp found near the seed pose"
         raise GraspError(msg)

@@ -291,4 +291,20 @@ def search(
     finally:
         pb.disconnect(client)
     out.sort(key=lambda c: (rank_tier(c.quality), c.closeness))
-    return out
+    return _distinct(out)
+
+
+def _distinct(candidates: list[GraspCandidate]) -> list[GraspCandidate]:
+    """Drop candidates that closed into the same grasp as an earlier one (palm within 2 mm and 2°, joints
+    within 0.02 rad): different pre-grasps often end in one grasp."""
+    kept: list[GraspCandidate] = []
+    for cand in candidates:
+        same = any(
+            np.linalg.norm(cand.position - k.position) < 0.002
+            and abs(float(np.dot(cand.quat_xyzw, k.quat_xyzw))) > math.cos(math.radians(1.0))
+            and np.max(np.abs(cand.closed - k.closed)) < 0.02
+            for k in kept
+        )
+        if not same:
+            kept.append(cand)
+    return kept
