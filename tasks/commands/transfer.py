@@ -90,6 +90,6 @@ def run(args: argparse.Namespace) -> int:
         f"scale {reg.best.transform.scale:.4f}  axis spread {result.axis_spread_deg:.2f} deg "
         f"{result.axis_spread_mm:.2f} mm  region "
         f"{'whole' if reg.crop_radius_m is None else f'functional (r={reg.crop_radius_m * 1e3:.0f} mm)'}"
-        f"{'  POOR' if reg.poor else ''}\n"
+        f"{'  POOR' if result.poor else ''}\n"
     )
     return 0

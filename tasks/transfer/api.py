@@ -27,6 +27,9 @@ SPREAD_SCORE_GAP = 0.02
 """Alignments scoring within this of the best count as equally plausible for the axis spread."""
 SPREAD_COUNT = 5
 """At most this many best alignments (the best included) enter the axis spread."""
+MAX_SPREAD_DEG = 5.0
+MAX_SPREAD_MM = 5.0
+"""A larger axis spread makes the registration poor: the data do not single out one alignment."""
 
 
 @dataclass(frozen=True)
@@ -39,6 +42,8 @@ class TransferResult:
     """Largest angle between the best alignment's carried axes and those of the equally good alternatives."""
     axis_spread_mm: float
     """Largest point-to-line distance between them, millimetres (target frame)."""
+    poor: bool
+    """The registration is poor (``Registration.poor``) or the axis spread is above the limits."""
     warnings: tuple[str, ...]
 
 
@@ -84,12 +89,19 @@ def transfer_descriptor(
     focus = focus_points(desc, source)
     reg = register_models(source, target, focus=focus if len(focus) else None, params=params, init=init, rng=rng)
     warnings = list(reg.warnings)
-    if reg.poor and strict:
-        msg = "; ".join(w for w in reg.warnings if w.startswith("poor")) + " (--strict)"
-        raise TransferError(msg)
     best = reg.best.transform
     plausible = [a.transform for a in reg.alignments[1:SPREAD_COUNT] if a.score >= reg.best.score - SPREAD_SCORE_GAP]
     spread_deg, spread_m = axis_spread(desc.chain, best, plausible)
+    uncertain = spread_deg > MAX_SPREAD_DEG or spread_m * 1e3 > MAX_SPREAD_MM
+    if uncertain:
+        warnings.append(
+            f"poor registration: alignments as good as the best disagree on the axes by {spread_deg:.1f} deg "
+            f"and {spread_m * 1e3:.1f} mm (want <= {MAX_SPREAD_DEG:g} deg and {MAX_SPREAD_MM:g} mm)"
+        )
+    poor = reg.poor or uncertain
+    if poor and strict:
+        msg = "; ".join(w for w in warnings if w.startswith("poor")) + " (--strict)"
+        raise TransferError(msg)
 
     grasp = carry_grasp(desc.grasp, best) if desc.grasp is not None else None
     if replan_grasp:
@@ -110,7 +122,7 @@ def transfer_descriptor(
         "region": "whole" if reg.crop_radius_m is None else "functional",
         "crop_radius_m": reg.crop_radius_m,
         "source_points_used": reg.source_points_used,
-        "poor": reg.poor,
+        "poor": poor,
         "warnings": warnings,
         "source": {"id": desc.id, "name": desc.name, "object": desc.object.name},
         "target_model": target_label,
@@ -128,4 +140,4 @@ def transfer_descriptor(
         parent=desc.id,
         extra_provenance={**desc.extra_provenance, "transfer": info},
     )
-    return TransferResult(out, reg, spread_deg, spread_m * 1e3, tuple(warnings))
+    return TransferResult(out, reg, spread_deg, spread_m * 1e3, poor, tuple(warnings))

@@ -42,6 +42,10 @@ NORMAL_RADIUS = 2.0 * COARSE_VOXEL
 MID_VOXEL_DIVISOR = 80.0
 """The whole-model point-to-point stage works at the target's bounding-box diagonal / this."""
 PLANE_ICP_POINTS = 1500
+SURFACE_NORMAL_SPACINGS = 3.0
+SURFACE_NORMAL_NN = 12
+"""Surface normals of the fine stage: the 12 nearest points within 3 median point spacings, local enough for
+thin parts (a mug's handle, a wall 4 mm thick)."""
 """Raw source points used by the final point-to-plane similarity refinement."""
 
 
@@ -65,11 +69,11 @@ class RegistrationParams:
     poor_fitness: float = 0.35
     """Below this final fitness (fraction of used source points with a target point within the threshold) the
     registration is poor."""
-    poor_plane_frac: float = 0.3
+    poor_plane_frac: float = 0.35
+    poor_score: float = 0.4
+    """Below this two-way score (how much of each model the other explains) it is poor: a partial scan of the
+    same object scores 0.7 and more, a shrunken source sitting on a patch of the target far less."""
     """Above this point-to-plane RMSE, as a fraction of the final correspondence threshold, it is poor as well."""
-    poor_agreement: float = 0.5
-    """Below this fraction of inlier pairs with agreeing surface normals it is poor (random clouds: about 0.2;
-    good fits of the benchmark's partial scans: 0.75 and above)."""
     min_crop_points: int = 150
     context_weight: float = 0.3
     """Total weight of the rest of the model against the functional part's in the final refinement (0: the
@@ -129,8 +133,8 @@ def _downsample(points: Points, voxel: float) -> O3dCloud:
     return _cloud(points).voxel_down_sample(voxel)
 
 
-def _with_normals(pcd: O3dCloud, radius: float) -> O3dCloud:
-    pcd.estimate_normals(o3d.geometry.KDTreeSearchParamHybrid(radius=radius, max_nn=30))
+def _with_normals(pcd: O3dCloud, radius: float, max_nn: int = 30) -> O3dCloud:
+    pcd.estimate_normals(o3d.geometry.KDTreeSearchParamHybrid(radius=radius, max_nn=max_nn))
     return pcd
 
 
@@ -331,6 +335,7 @@ def register_models(
     (source to target, metres). Raises ``TransferError`` for unusable clouds.
     """
     params = params or RegistrationParams()
+    o3d.utility.set_verbosity_level(o3d.utility.VerbosityLevel.Error)  # its warnings would go to stdout
     src = check_model(source, "source model")
     tgt = check_model(target, "target model")
     norm_s, norm_t = _normaliser(src), _normaliser(tgt)
@@ -361,7 +366,7 @@ def register_models(
 
     warnings: list[str] = []
     crop_radius: float | None = None
-    used = src
+    used_idx = np.arange(src.shape[0])
     if not params.whole and focus is not None and len(focus) > 0:
         foc = check_points(focus, "focus")
         crop_radius = params.crop_radius_m or params.auto_crop_frac * bbox_diagonal(src)
@@ -369,17 +374,18 @@ def register_models(
         while int(mask.sum()) < min(params.min_crop_points, src.shape[0]) and crop_radius < bbox_diagonal(src):
             crop_radius *= 1.5
             mask = functional_mask(src, foc, crop_radius)
-        used = src[mask]
-        if used.shape[0] < MIN_POINTS:
+        used_idx = np.flatnonzero(mask)
+        if used_idx.shape[0] < MIN_POINTS:
             warnings.append("functional region too small; aligned the whole model")
-            used, crop_radius = src, None
+            used_idx, crop_radius = np.arange(src.shape[0]), None
+    used = src[used_idx]
 
     spacing = float(np.median(np.asarray(_cloud(tgt).compute_nearest_neighbor_distance())))
     fine_voxel = max(params.fine_voxel_frac * span_t, spacing)
     threshold = max(1.5 * fine_voxel, 2.0 * spacing)
     tgt_fine = _downsample(tgt, fine_voxel)
     tgt_fine_pts = _points(tgt_fine)
-    tgt_full = _with_normals(_cloud(tgt), max(2.0 * fine_voxel, 3.0 * spacing))
+    tgt_full = _with_normals(_cloud(tgt), SURFACE_NORMAL_SPACINGS * spacing, max_nn=SURFACE_NORMAL_NN)
     tgt_normals = np.asarray(tgt_full.normals, dtype=np.float64)
     mid_voxel = max(span_t / MID_VOXEL_DIVISOR, spacing)
     tgt_mid = _downsample(tgt, mid_voxel)
@@ -388,8 +394,8 @@ def register_models(
     pick = rng.permutation(used.shape[0])[:PLANE_ICP_POINTS]
     raw_sample = used[pick]
     src_spacing = float(np.median(np.asarray(_cloud(src).compute_nearest_neighbor_distance())))
-    used_cloud = _with_normals(_cloud(used), max(2.0 * fine_voxel / kept[0][1].scale, 3.0 * src_spacing))
-    raw_normals = np.asarray(used_cloud.normals, dtype=np.float64)[pick]
+    src_cloud = _with_normals(_cloud(src), SURFACE_NORMAL_SPACINGS * src_spacing, max_nn=SURFACE_NORMAL_NN)
+    raw_normals = np.asarray(src_cloud.normals, dtype=np.float64)[used_idx[pick]]
     # the functional part leads the final refinement; the rest of the model keeps it from tilting where the
     # part alone is ambiguous (a cap seen from one side), with ``context_weight`` of the part's total weight
     refine_points, refine_weights = raw_sample, None
@@ -437,13 +443,13 @@ def register_models(
     poor = (
         best.fitness < params.poor_fitness
         or best.plane_rmse_m > params.poor_plane_frac * threshold
-        or best.normal_agreement < params.poor_agreement
+        or best.score < params.poor_score
     )
     if poor:
         warnings.append(
             f"poor registration: fitness {best.fitness:.2f} (want >= {params.poor_fitness}), "
             f"surface RMSE {best.plane_rmse_m * 1e3:.2f} mm (want <= {params.poor_plane_frac * threshold * 1e3:.2f}), "
-            f"normals agreeing {best.normal_agreement:.2f} (want >= {params.poor_agreement})"
+            f"two-way score {best.score:.2f} (want >= {params.poor_score})"
         )
     return Registration(
         best=best,

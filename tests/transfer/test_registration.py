@@ -85,10 +85,10 @@ def test_unrelated_target_is_poor_and_strict_refuses(bottle_model: shapes.ShapeM
     desc = make_descriptor(bottle_model, "a" * 64)
     ref = ObjectRef("noise", "c" * 64, len(noise))
     out = transfer_descriptor(desc, bottle_model.points, noise, ref, params=FAST, rng=rng)
-    assert out.registration.poor
+    assert out.poor
     assert any(w.startswith("poor registration") for w in out.warnings)
     assert out.descriptor.to_dict()["provenance"]["transfer"]["poor"] is True
-    with pytest.raises(TransferError, match=r"poor registration: fitness .* \(--strict\)"):
+    with pytest.raises(TransferError, match=r"poor registration: .* \(--strict\)"):
         transfer_descriptor(desc, bottle_model.points, noise, ref, params=FAST, strict=True, rng=rng)
 
 
@@ -146,3 +146,11 @@ def test_replan_without_a_grasp_warns(bottle_model: shapes.ShapeModel) -> None:
 def test_unusable_clouds_are_refused(points: np.ndarray, match: str) -> None:
     with pytest.raises(TransferError, match=match):
         check_model(points, "source model")
+
+
+def test_flat_sheet_is_a_poor_fit(bottle_model: shapes.ShapeModel) -> None:
+    rng = np.random.default_rng(71)
+    sheet = np.column_stack([rng.uniform(-0.1, 0.1, 3000), rng.uniform(-0.1, 0.1, 3000), np.zeros(3000)])
+    reg = register_models(bottle_model.points, sheet, focus=bottle_model.focus, params=FAST, rng=rng)
+    assert reg.poor
+    assert reg.warnings[-1].startswith("poor registration: fitness")
