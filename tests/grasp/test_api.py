@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -19,7 +20,9 @@ from tasks.grasp.api import (
     plan_grasp_for_recording,
     wrist_pose_at,
 )
+from tasks.grasp.object_model import sample_cylinder_surface
 from tasks.recording.load import PoseTrack
+from tasks.store import Store
 
 from .conftest import HANDLE_CENTER, PALM_DOWN
 
@@ -90,3 +93,30 @@ def test_errors_name_what_is_wrong(handle_points: tuple[Points, Points]) -> None
     empty = PoseTrack("/wrist", "wrist", np.zeros(0, dtype=np.int64), np.zeros((0, 3)), np.zeros((0, 4)))
     with pytest.raises(GraspError, match="wrist track /wrist: no finite samples"):
         plan_grasp_for_recording(handle_points[0], empty, 0.0, 0, rng)
+
+
+def test_plans_for_a_recording_written_ingested_and_loaded(tmp_path: Path, store: Store) -> None:
+    """A demonstration MCAP (real writer) with a handle cloud, a wrist track and one marker, through ingest."""
+    from tasks.ingest.api import ingest_recording
+    from tasks.recording.load import load_recording
+    from tasks.recording.writer import RecordingWriter
+
+    rng = np.random.default_rng(4)
+    pts, _ = sample_cylinder_surface(0.02, 0.08, 3000, rng)
+    handle = Rotation.from_euler("y", 90, degrees=True).apply(pts) + HANDLE_CENTER
+    track = _track(HANDLE_CENTER + np.array([0.0, 0.0, 0.05]), PALM_DOWN)
+    path = tmp_path / "demo.mcap"
+    with RecordingWriter(path, "mcap") as writer:
+        writer.add_cloud("/object/model", int(track.stamps_ns[0]), handle)
+        writer.add_poses("/hand/wrist", track.stamps_ns, track.positions, track.quats)
+        marker = HANDLE_CENTER + np.zeros((len(track.stamps_ns), 3))
+        writer.add_points("/mocap/marker_0", track.stamps_ns, marker)
+    result = ingest_recording(path, store)
+    rec = load_recording(store, result.recording_id)
+    assert rec.object_model is not None
+    assert rec.wrist is not None
+    t_seed = (int(track.stamps_ns[-1]) - rec.start_ns) * 1e-9
+    grasp = plan_grasp_for_recording(rec.object_model, rec.wrist, t_seed, rec.start_ns, np.random.default_rng(1))
+    assert grasp is not None
+    assert grasp.quality["force_closure"] is True
+    assert np.linalg.norm(np.array(grasp.wrist_position) - (HANDLE_CENTER + np.array([0.0, 0.0, 0.05]))) < 0.1
