@@ -62,6 +62,16 @@ def palm_from_sensor(
     return palm_pos, (sensor * offset.rotation()).as_quat()
 
 
+def sensor_from_palm(
+    position: Vector3, quat_xyzw: FloatArray, offset: PalmOffset = GRASPIT_TRACKER_OFFSET
+) -> tuple[Vector3, FloatArray]:
+    """Tracker pose (position (3,) m, quaternion [x, y, z, w], world) whose palm is the given world pose: the
+    inverse of ``palm_from_sensor``, for writing a wrist track that seeds a wanted palm pose."""
+    sensor = Rotation.from_quat(quat_xyzw) * offset.rotation().inv()
+    sensor_pos = np.asarray(position, dtype=np.float64) - sensor.apply(np.array(offset.translation_m))
+    return sensor_pos, sensor.as_quat()
+
+
 def wrist_pose_at(track: PoseTrack, stamp_ns: int) -> tuple[Vector3, FloatArray]:
     """Tracker pose at ``stamp_ns`` (positions linear, orientations slerped; clamped to the track's span)."""
     ok = np.all(np.isfinite(track.positions), axis=1) & np.all(np.isfinite(track.quats), axis=1)

@@ -18,6 +18,7 @@ from tasks.grasp.api import (
     part_near,
     plan_grasp,
     plan_grasp_for_recording,
+    sensor_from_palm,
     wrist_pose_at,
 )
 from tasks.grasp.object_model import sample_cylinder_surface
@@ -46,6 +47,13 @@ def test_graspit_offset_moves_and_turns_the_palm() -> None:
     assert (Rotation.from_quat(quat) * expected.inv()).magnitude() < 1e-9
     pos, _ = palm_from_sensor(np.ones(3), np.array([0.0, 0.0, 0.0, 1.0]), PalmOffset((0.0, 0.0, 0.0), 0.0, 0.0))
     np.testing.assert_allclose(pos, np.ones(3))
+
+
+def test_sensor_from_palm_inverts_palm_from_sensor() -> None:
+    pos, quat = np.array([0.3, -0.2, 1.1]), Rotation.from_euler("xyz", [0.3, -1.0, 2.0]).as_quat()
+    back_pos, back_quat = palm_from_sensor(*sensor_from_palm(pos, quat))
+    np.testing.assert_allclose(back_pos, pos, atol=1e-12)
+    assert (Rotation.from_quat(back_quat) * Rotation.from_quat(quat).inv()).magnitude() < 1e-9
 
 
 def test_wrist_pose_is_interpolated_at_the_seed_time() -> None:
