@@ -7,6 +7,9 @@ of the simulation, scene and grasp modules. A descriptor whose object has no bui
 
 from __future__ import annotations
 
+import contextlib
+import io
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -14,10 +17,10 @@ from prefect import task
 from prefect.context import TaskRunContext
 
 from flows.caching import RETRIES, RETRY_DELAY_S, retry_on_transient_io, stage_key
-from tasks.errors import SceneError
+from tasks.errors import SceneError, StoreError
 from tasks.report.refs import DescriptorRef, SimulationRef
 from tasks.simulate.api import simulate_descriptor
-from tasks.store import Store
+from tasks.store import Store, write_bytes_atomic
 
 SIMULATE_MODULES = ("tasks.simulate", "tasks.scenes", "tasks.grasp", "schemas")
 """Modules whose source is the simulation stage's code version."""
@@ -55,6 +58,7 @@ def simulate_task(
         return SimulationRef(desc.id, scene or desc.object.name, False, (), (), skipped=str(err))
     prims = result.primitives
     detail = "; ".join(result.notes)
+    trace_path = _write_trace(Store(store_root), desc.id, result)
     return SimulationRef(
         descriptor_id=desc.id,
         scene=result.scene,
@@ -62,5 +66,30 @@ def simulate_task(
         achieved=tuple(float(p.achieved) for p in prims),
         target=tuple(float(p.target) for p in prims),
         joints=tuple(p.joint for p in prims),
+        trace_path=str(trace_path) if trace_path else None,
         detail=detail,
     )
+
+
+def _write_trace(store: Store, descriptor_id: str, result: Any) -> Path | None:
+    """The driven joints' trace as ``<store>/simulations/<id>-<scene>.npz`` (times_s, values (k, n), targets,
+    names, units) for the report; None when the simulation recorded no trace."""
+    trace = getattr(result, "trace", None)
+    if trace is None or not getattr(trace, "t_s", ()):
+        return None
+    names = list(trace.joints)
+    targets = {p.joint: (float(p.target), "rad" if p.kind == "rotation" else "m") for p in result.primitives}
+    buf = io.BytesIO()
+    np.savez(
+        buf,
+        times_s=np.asarray(trace.t_s, dtype=np.float64),
+        values=np.asarray(trace.q, dtype=np.float64).reshape(len(trace.t_s), -1).T,
+        targets=np.array([targets.get(n, (np.nan, ""))[0] for n in names]),
+        names=np.array(names),
+        units=np.array([targets.get(n, (0.0, "rad"))[1] for n in names]),
+    )
+    path = store.root / "simulations" / f"{descriptor_id[:16]}-{result.scene}.npz"
+    if not path.exists():
+        with contextlib.suppress(StoreError):  # written by a concurrent run of the same simulation
+            write_bytes_atomic(path, buf.getvalue())
+    return path
