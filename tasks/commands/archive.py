@@ -13,7 +13,6 @@ from pathlib import Path
 from typing import Any
 
 from flows.cli_args import add_param_argument, parse_params
-from tasks.store import resolve_store_root
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -61,6 +60,7 @@ def run(args: argparse.Namespace) -> int:
     from flows.progress import listening  # noqa: PLC0415
     from flows.reprocess_archive import reprocess_archive  # noqa: PLC0415
     from flows.runtime import cli_settings  # noqa: PLC0415
+    from tasks.store import resolve_store_root  # noqa: PLC0415
 
     params = parse_params(args.param)
     find_recordings(args.dir)  # fail fast, before Prefect starts, on a missing folder

@@ -9,8 +9,6 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from tasks.store import resolve_store_root
-
 DEFAULT_ARCHIVE = Path("data/recordings")
 
 
@@ -29,6 +27,7 @@ def run(args: argparse.Namespace) -> int:
     from prefect import serve  # noqa: PLC0415
 
     from flows.deployments import build_deployments  # noqa: PLC0415
+    from tasks.store import resolve_store_root  # noqa: PLC0415
 
     store = str(resolve_store_root(args.store).resolve())
     deployments = build_deployments(str(args.archive.resolve()), store, cron=args.cron, workers=args.workers)
