@@ -5,8 +5,9 @@ Builds an archive of synthetic recordings (``tasks.synth``), then measures in on
 1. first run of ``reprocess-archive`` on an empty store,
 2. an unchanged re-run (target: under 10% of the first; every stage a cache hit),
 3. a re-run after one learning parameter changed (ingest cached, learning re-runs),
-4. the same work done by calling the stage functions directly, one recording after another,
-   against the first run with one worker (target: orchestration overhead under 20%).
+4. the same work done by calling the stage functions directly, one recording after another, against a
+   cold flow run with one worker (target: orchestration overhead under 20%). The machine is shared, so
+   direct and flow runs alternate, twice each on fresh stores, and the best of each pair is compared.
 
 Stage executions are counted from the server's task runs (``Completed`` = executed, ``Cached`` = hit).
 Uses ``PREFECT_API_URL`` when it is set; otherwise starts ``prefect server start`` on loopback with a temporary
@@ -212,28 +213,38 @@ def main() -> int:
             warm = find_first(archive)
             process_directly(warm, tmp / "store-warm-up", "warm-up", {})
 
+            # The machine is shared: flow and direct runs alternate, each twice on a cold store, best of two.
+            plain_runs = [direct(archive, tmp / "store-direct-1", {})]
             first, run1, _ = timed_flow(archive, store, {}, workers=1)
             rows.append(("first run (1 worker)", first, stage_counts(run1, 5 * count)))
+            plain_runs.append(direct(archive, tmp / "store-direct-2", {}))
+            cold2, _, _ = timed_flow(archive, tmp / "store-cold-2", {}, workers=1)
             again, run2, _ = timed_flow(archive, store, {}, workers=args.workers)
             rows.append(("unchanged re-run", again, stage_counts(run2, 5 * count)))
             changed, run3, _ = timed_flow(archive, store, CHANGED_PARAM, workers=args.workers)
             rows.append((f"re-run with {CHANGED_PARAM}", changed, stage_counts(run3, 5 * count)))
             concurrent, run4, _ = timed_flow(archive, tmp / "store-concurrent", {}, workers=args.workers)
             rows.append((f"first run ({args.workers} workers)", concurrent, stage_counts(run4, 5 * count)))
-            plain = direct(archive, tmp / "store-direct", {})
+            plain = min(plain_runs)
+            flow_best = min(first, cold2)
+            from prefect.logging.handlers import APILogHandler
+
+            APILogHandler.flush()  # before the server stops
         print()
         print(f"{'run':<34} {'seconds':>8} {'% of first':>10}  stage runs (executed/cached)")
         for label, secs, counts in rows:
             stages = ", ".join(f"{k} {c.get('Completed', 0)}/{c.get('Cached', 0)}" for k, c in sorted(counts.items()))
             print(f"{label:<34} {secs:8.2f} {100 * secs / first:9.1f}%  {stages}")
-        print(f"{'stage functions called directly':<34} {plain:8.2f} {100 * plain / first:9.1f}%")
+        print(f"{'second cold run (1 worker)':<34} {cold2:8.2f} {100 * cold2 / first:9.1f}%")
+        for i, secs in enumerate(plain_runs, 1):
+            print(f"{f'stage functions called directly #{i}':<34} {secs:8.2f} {100 * secs / first:9.1f}%")
         print()
-        overhead = 100 * (first - plain) / plain
+        overhead = 100 * (flow_best - plain) / plain
         ratio = 100 * again / first
         print(f"{'figure':<44} {'ours':>8} {'target':>8}")
         print(f"{'unchanged re-run, % of first run':<44} {ratio:7.1f}% {'< 10%':>8}")
-        print(f"{'orchestration overhead vs direct calls':<44} {overhead:7.1f}% {'< 20%':>8}")
-        print(f"{'per recording, direct / flow (s)':<44} {plain / count:8.2f} {first / count:8.2f}")
+        print(f"{'orchestration overhead vs direct calls (best of 2)':<44} {overhead:7.1f}% {'< 20%':>8}")
+        print(f"{'per recording, direct / flow, best of 2 (s)':<44} {plain / count:8.2f} {flow_best / count:8.2f}")
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     return 0
