@@ -3,6 +3,7 @@
 Without ``PREFECT_API_URL`` Prefect starts an ephemeral server per process: 10 to 20 s on this machine, so
 the start-up timeout is raised from Prefect's 20 s. The per-run heartbeat thread costs about 1 s at the end
 of every synchronous flow run; CLI runs are watched by the person who started them, so it is switched off.
+The ephemeral server's telemetry is off too (offline it only logs failures).
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ def cli_settings() -> Iterator[None]:
     updates = {
         "server.ephemeral.startup_timeout_seconds": EPHEMERAL_STARTUP_TIMEOUT_S,
         "flows.heartbeat_frequency": None,
+        "server.analytics_enabled": False,
     }
     with temporary_settings(updates=updates):
         yield

@@ -36,12 +36,15 @@ def _print_summary(summary: dict[str, Any]) -> None:
         table.add_column(col)
     for row in summary["entries"]:
         sim = row["simulation_success"]
+        sim_text = "-" if sim is None else ("success" if sim else "failed")
+        if row.get("simulation_skipped"):
+            sim_text = "not simulated"
         table.add_row(
             Path(row["source"]).name,
             row["status"] if row["error"] is None else f"failed: {row['error']}",
             row["descriptor"] or "-",
             (row["id"] or "-")[:12],
-            "-" if sim is None else ("success" if sim else "failed"),
+            sim_text,
         )
     console.print(table)
     counts = summary["counts"]
