@@ -96,6 +96,8 @@ class Alignment:
     about the scan noise for a good fit, a sizeable fraction of the threshold for a wrong or unrelated one."""
     normal_agreement: float
     """Fraction of the inlier pairs whose surface normals agree (unsigned, within 25 degrees)."""
+    model_score: float
+    """Geometric mean of the whole models' two one-way fitnesses (how much of each the other explains)."""
     score: float
     """Ranking score: geometric mean of the source->target and the local target->source fitness."""
     start: str
@@ -411,7 +413,7 @@ def register_models(
         fitted = _similarity_icp(whole_mid, tgt_mid, start, (4.0 * mid_voxel, mid_threshold), 30)
         f_st, _ = _fitness(whole_mid, tgt_mid, fitted, mid_threshold)
         f_ts, _ = _fitness(tgt_mid, whole_mid, fitted.inverse(), mid_threshold / fitted.scale)
-        score = math.sqrt(f_st * f_ts)
+        score = model_score = math.sqrt(f_st * f_ts)
         whole_fine = _downsample(src, fine_voxel / fitted.scale)
         used_fine = whole_fine
         if crop_radius is not None and focus is not None:
@@ -432,24 +434,24 @@ def register_models(
             c_ts = 0.0
             if local.shape[0] > 0:
                 c_ts, _ = _fitness(_cloud(local), used_fine, fitted.inverse(), threshold / fitted.scale)
-            score = math.sqrt(score * math.sqrt(c_st * c_ts))
+            score = score ** (1.0 / 3.0) * (c_st**0.75 * c_ts**0.25) ** (2.0 / 3.0)  # the functional part leads
         fitness, rmse = _fitness(used_fine, tgt_fine, fitted, threshold)
         plane_rmse, agreement = plane_residuals(
             raw_sample, raw_normals, tgt, tgt_normals, fitted, max_distance_m=threshold
         )
-        alignments.append(Alignment(fitted, fitness, rmse, plane_rmse, agreement, score, name))
+        alignments.append(Alignment(fitted, fitness, rmse, plane_rmse, agreement, model_score, score, name))
     alignments.sort(key=lambda a: (-round(a.score, 2), a.inlier_rmse_m))
     best = alignments[0]
     poor = (
         best.fitness < params.poor_fitness
         or best.plane_rmse_m > params.poor_plane_frac * threshold
-        or best.score < params.poor_score
+        or best.model_score < params.poor_score
     )
     if poor:
         warnings.append(
             f"poor registration: fitness {best.fitness:.2f} (want >= {params.poor_fitness}), "
             f"surface RMSE {best.plane_rmse_m * 1e3:.2f} mm (want <= {params.poor_plane_frac * threshold * 1e3:.2f}), "
-            f"two-way score {best.score:.2f} (want >= {params.poor_score})"
+            f"two-way score {best.model_score:.2f} (want >= {params.poor_score})"
         )
     return Registration(
         best=best,

@@ -203,12 +203,12 @@ def drawer(
 ) -> ShapeModel:
     """A box with a bar handle off-centre on its front face; translation along -y (pull)."""
     s = np.array(size)
-    handle = np.array([s[0] * 0.15, -s[1] / 2 - 0.025, s[2] * 0.65])
+    handle = np.array([s[0] * 0.15, -s[1] / 2 - 0.0325, s[2] * 0.65])
     parts = [
         *box(s, np.array([0.0, 0.0, s[2] / 2])),
-        *box(np.array([0.12, 0.015, 0.015]), handle),
-        *box(np.array([0.015, 0.02, 0.015]), handle + np.array([0.05, 0.015, 0.0])),
-        *box(np.array([0.015, 0.02, 0.015]), handle + np.array([-0.05, 0.015, 0.0])),
+        *box(np.array([0.14, 0.025, 0.025]), handle),
+        *box(np.array([0.02, 0.02, 0.02]), handle + np.array([0.05, 0.02, 0.0])),
+        *box(np.array([0.02, 0.02, 0.02]), handle + np.array([-0.05, 0.02, 0.0])),
     ]
     pts, nrm = sample_parts(parts, n, rng)
     return ShapeModel("drawer", pts, nrm, handle, np.array([0.0, -1.0, 0.0]), "translation", handle[None, :])
