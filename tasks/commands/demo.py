@@ -1,17 +1,59 @@
-"""``pbd demo``: not built yet (issue 3)."""
+"""``pbd demo``: make the sample recordings if missing, run the whole pipeline flow over them, print where the
+descriptors and the report are and whether each task succeeded in simulation.
+
+Needs no Prefect server: without ``PREFECT_API_URL`` Prefect starts a temporary one in this process.
+"""
 
 from __future__ import annotations
 
 import argparse
-
-from tasks.errors import NotBuiltError
+import sys
+from pathlib import Path
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of ``pbd demo`` (none until it is built)."""
-    parser.add_argument("rest", nargs=argparse.REMAINDER, help=argparse.SUPPRESS)
+    """Arguments of ``pbd demo``."""
+    parser.add_argument("--samples", type=Path, default=Path("data/recordings"), help="folder of the sample recordings")
+    parser.add_argument("--workers", type=int, default=2, metavar="N", help="recordings in flight at once")
 
 
-def run(args: argparse.Namespace) -> int:  # noqa: ARG001 - the stub ignores its arguments
-    """Refuse cleanly: this command is not built yet."""
-    raise NotBuiltError("demo", 3)
+def run(args: argparse.Namespace) -> int:
+    """Run the demo flow; 0 when every sample recording was processed."""
+    from rich.console import Console  # noqa: PLC0415
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn  # noqa: PLC0415
+    from rich.table import Table  # noqa: PLC0415
+
+    from flows.demo import demo, sample_recordings_maker  # noqa: PLC0415
+    from flows.progress import listening  # noqa: PLC0415
+    from flows.runtime import cli_settings  # noqa: PLC0415
+    from tasks.store import resolve_store_root  # noqa: PLC0415
+
+    sample_recordings_maker()  # NotBuiltError (exit 2) before Prefect starts while synth is not built
+    store = resolve_store_root(args.store).resolve()
+    columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
+    with cli_settings(), Progress(*columns) as progress:
+        bar = progress.add_task("starting Prefect (ephemeral server)", total=None)
+
+        def on_progress(done: int, total: int, label: str) -> None:
+            progress.update(bar, total=total, completed=done, description=f"sample tasks ({label or 'queued'})")
+
+        with listening(on_progress):
+            summary = demo(store=str(store), samples=str(args.samples.resolve()), workers=args.workers)
+
+    console = Console()
+    table = Table(title=f"pbd demo - store {store}")
+    for col in ("recording", "descriptor", "chain file", "simulation"):
+        table.add_column(col)
+    for row in summary["entries"]:
+        if row["error"] is not None:
+            sim = f"[red]failed: {row['error']}[/red]"
+        elif row["simulation_success"] is None:
+            sim = f"not simulated ({row['simulation_skipped'] or 'no scene'})"
+        else:
+            sim = "[green]success[/green]" if row["simulation_success"] else "[red]failed[/red]"
+        table.add_row(Path(row["source"]).name, row["descriptor"] or "-", row["path"] or "-", sim)
+    console.print(table)
+    console.print(f"descriptors: {store / 'descriptors'}")
+    console.print(f"report:      {summary['report']}")
+    sys.stdout.flush()
+    return 0 if summary["counts"]["failed"] == 0 else 1
