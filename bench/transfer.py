@@ -136,13 +136,13 @@ def run_pairs(n_pairs: int, seed: int, points: int, only: int | None = None) -> 
             f"{i:3d} {model.name:8} {truth.scale:5.2f} {keep:4.2f} {'view' if view else 'cut':4} | "
             f"{ours[-1].deg:8.2f} {ours[-1].mm:6.2f} {reg.best.fitness:4.2f} | {icp[-1].deg:8.1f} {icp[-1].mm:7.1f} | "
             f"{icp_true[-1].deg:12.2f} {icp_true[-1].mm:6.2f} | {time.process_time() - t0:4.1f}"
-            f"{'  POOR' if reg.poor else ''}",
+            f"{'  WARNED' if poor_flags[-1] else ''}",
             flush=True,
         )
     print()
     print(
-        f"random pairs: {n_pairs} (seed {seed}), CPU {spent / n_pairs:.1f} s per registration; "
-        f"flagged poor: {sum(poor_flags)}"
+        f"random pairs: {len(ours)} (seed {seed}), CPU {spent / len(ours):.1f} s per registration; warned "
+        f"(poor fit, or axis spread > {MAX_SPREAD_DEG:g} deg / {MAX_SPREAD_MM:g} mm): {sum(poor_flags)}"
     )
     print(f"{'method':38} {'median deg':>10} {'worst deg':>10} {'median mm':>10} {'worst mm':>10}")
     trusted = [o for o, f in zip(ours, poor_flags, strict=True) if not f]
