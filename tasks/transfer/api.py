@@ -23,7 +23,7 @@ from tasks.transfer.similarity import Similarity
 
 __all__ = ["RegistrationParams", "TransferResult", "register_models", "transfer_descriptor"]
 
-SPREAD_SCORE_GAP = 0.02
+SPREAD_SCORE_GAP = 0.05
 """Alignments scoring within this of the best count as equally plausible for the axis spread."""
 SPREAD_COUNT = 5
 """At most this many best alignments (the best included) enter the axis spread."""
