@@ -1,0 +1,1 @@
+"""Built-in demonstration scenes after the paper's experiments (issue 3)."""
