@@ -51,7 +51,7 @@ def urdf_path(scene: Scene) -> Path:
 def load_scene(scene: Scene, client: int) -> int:
     """Load ``scene`` into pybullet ``client`` with a fixed base at its placement and its joints at
     ``joint_start``; returns the body id."""
-    body = pb.loadURDF(
+    body: int = pb.loadURDF(
         str(urdf_path(scene)),
         basePosition=scene.base_position,
         baseOrientation=scene.base_orientation,
