@@ -38,6 +38,7 @@ from tasks.simulate.result import (
     STILL_ANGULAR_RAD_S,
     STILL_LINEAR_M_S,
     SUCCESS_FRACTION,
+    JointTrace,
     PrimitiveResult,
     SimulationResult,
     StopReason,
@@ -200,6 +201,9 @@ class _Run:
         self.camera_target = np.zeros(3)
         self.camera_eye = np.ones(3)
         self.part_links: set[int] = set()
+        self.trace_joints: tuple[int, ...] = ()
+        self.trace_t: list[float] = []
+        self.trace_q: list[tuple[float, ...]] = []
 
     def close(self) -> None:
         for c in (self.sim, self.plan):
@@ -234,6 +238,9 @@ class _Run:
         touching = bool(self.hand_contacts(part_only=True))
         self.contact_checks += 1
         self.contact_hits += int(touching)
+        if self.trace_joints:
+            self.trace_t.append(self.sim_time_s)
+            self.trace_q.append(tuple(self.joint_value(j)[0] for j in self.trace_joints))
         return touching
 
     def joint_value(self, index: int) -> tuple[float, float]:
@@ -467,6 +474,8 @@ def _execute(run: _Run, desc: Descriptor, grasp_mode: GraspMode, wall0: float) -
         notes.append("no hand-object contact after closing: no grasp constraint made")
     run.frame("grasped")
     run.contact_checks = run.contact_hits = 0
+    driven = list(dict.fromkeys(m.joint for m in matches))
+    run.trace_joints = tuple(by_name[name].index for name in driven)
 
     results: list[PrimitiveResult] = []
     for i, (prim, match) in enumerate(zip(desc.chain, matches, strict=True)):
@@ -524,6 +533,7 @@ def _execute(run: _Run, desc: Descriptor, grasp_mode: GraspMode, wall0: float) -
         ),
         grasp_mode=grasp_mode,
         loop_wall_time_s=time.perf_counter() - loop0,
+        trace=JointTrace(tuple(driven), tuple(run.trace_t), tuple(run.trace_q)),
         frames=tuple(run.frames),
         notes=tuple(notes),
     )

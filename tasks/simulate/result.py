@@ -58,12 +58,22 @@ class PrimitiveResult:
 
 
 @dataclass(frozen=True)
+class JointTrace:
+    """The driven joints' positions over the chain: ``joints`` names, ``t_s`` (n,) simulated seconds since the
+    start, ``q`` (n, k) joint positions (rad or m), one row per control check."""
+
+    joints: tuple[str, ...] = ()
+    t_s: tuple[float, ...] = ()
+    q: tuple[tuple[float, ...], ...] = ()
+
+
+@dataclass(frozen=True)
 class SimulationResult:
     """A whole execution: per-primitive results, whether the grasp closed on the object, whether contact was
         kept, overall ``success``, simulated and wall-clock seconds, base placement (world, metres, [x,y,z,w]),
         ``grasp_mode`` ("constraint" or "friction"), the wall time of the physics loop alone (pre-grasp to the end,
         without loading and base placement), the process CPU time of the whole execution (a shared machine's load
-    inflates wall time, not CPU time), key-frame PNG paths and notes."""
+    inflates wall time, not CPU time), the driven joints' trace (not in ``to_dict``), key-frame PNG paths and notes."""
 
     descriptor_id: str
     scene: str
@@ -79,6 +89,7 @@ class SimulationResult:
     grasp_mode: Literal["constraint", "friction"]
     loop_wall_time_s: float = 0.0
     cpu_time_s: float = 0.0
+    trace: JointTrace = field(default_factory=JointTrace)
     frames: tuple[str, ...] = ()
     notes: tuple[str, ...] = field(default_factory=tuple)
 

@@ -27,6 +27,9 @@ def test_truth_descriptor_opens_the_door(tmp_path: Path, mode: str) -> None:
     assert prim.achieved <= 1.05
     assert prim.end_speed < 1.0
     assert result.sim_time_s > 1.0
+    assert result.trace.joints == ("hinge",)
+    assert len(result.trace.t_s) == len(result.trace.q) > 10
+    assert result.trace.q[0][0] < 0.1 * prim.achieved < result.trace.q[-1][0]  # the hinge angle climbs
 
 
 def test_disturbed_axis_still_opens_the_door(tmp_path: Path) -> None:
