@@ -1,0 +1,1 @@
+"""Simulated demonstration recordings of the built-in scenes (``pbd synth``, issue 3)."""
