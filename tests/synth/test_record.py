@@ -4,6 +4,7 @@ ingest in every container, the sensors' rates, noise and dropouts, the reach and
 from __future__ import annotations
 
 import hashlib
+import itertools
 import json
 from pathlib import Path
 from typing import Any
@@ -149,7 +150,7 @@ def test_truth_segments_cover_the_recording_in_order(door: tuple[Path, dict[str,
     assert kinds == ["rest", "reach", "hold", "rotation", "hold"]
     ends = [(s["t_start"], s["t_end"]) for s in truth["segments"]]
     assert ends[0][0] == 0.0
-    assert all(a[1] == b[0] for a, b in zip(ends, ends[1:], strict=False))
+    assert all(a[1] == b[0] for a, b in itertools.pairwise(ends))
     assert ends[-1][1] == pytest.approx(truth["recording"]["duration_s"])
     prim = truth["chain"][0]
     assert (prim["t_start"], prim["t_end"]) == ends[3]
@@ -225,7 +226,7 @@ def test_refuses_to_overwrite_and_checks_the_suffix(tmp_path: Path) -> None:
 def test_a_failing_object_model_leaves_nothing(tmp_path: Path) -> None:
     from tasks.errors import SceneError
 
-    def flat(scene: Scene, n: int, rng: np.random.Generator) -> np.ndarray:  # noqa: ARG001
+    def flat(scene: Scene, n: int, rng: np.random.Generator) -> np.ndarray:
         return np.zeros((n, 2))
 
     with pytest.raises(SceneError, match=r"object model must be finite \(n, 3\) points, got shape \(2048, 2\)"):

@@ -31,7 +31,7 @@ def _runs(mask: np.ndarray) -> list[int]:
     """Lengths of the runs of True in ``mask``."""
     padded = np.concatenate([[False], mask, [False]]).astype(np.int8)
     edges = np.flatnonzero(np.diff(padded))
-    return (edges[1::2] - edges[::2]).tolist()
+    return [int(v) for v in edges[1::2] - edges[::2]]
 
 
 def test_drawn_parameters_stay_in_their_ranges() -> None:
