@@ -137,7 +137,8 @@ def _sample_cylinder(size: tuple[float, ...], n: int, rng: np.random.Generator) 
 
 def _sample_sphere(size: tuple[float, ...], n: int, rng: np.random.Generator) -> Points:
     v = rng.normal(size=(n, 3))
-    return size[0] * v / np.linalg.norm(v, axis=1, keepdims=True)
+    out: Points = size[0] * v / np.linalg.norm(v, axis=1, keepdims=True)
+    return out
 
 
 def sample_object_model(scene: Scene, n_points: int, rng: np.random.Generator) -> Points:
