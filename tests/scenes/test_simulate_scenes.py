@@ -2,16 +2,19 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from tasks.errors import SceneError
 from tasks.scenes.catalog import SCENE_NAMES, build_scene
-from tasks.scenes.kinematics import truth_descriptor
+from tasks.scenes.kinematics import link_frames, scene_client, truth_descriptor
+from tasks.scenes.scene import HAND_LINK
 from tasks.simulate.api import simulate_descriptor
 from tasks.simulate.execute import execute
 from tasks.simulate.result import SUCCESS_FRACTION
-from tasks.simulate.scenes import scene_setup, scene_setup_for
+from tasks.simulate.scenes import scene_instances, scene_setup, scene_setup_for
 
 
 def test_unknown_scene() -> None:
@@ -50,3 +53,21 @@ def test_seeded_instance_through_the_api(name: str, seed: int) -> None:
     result = simulate_descriptor(desc, rng=np.random.default_rng(seed))
     assert result.success, result.to_dict()
     assert result.scene == name
+
+
+def test_benchmark_instances_and_placed_urdf(tmp_path: Path) -> None:
+    """``scene_instances`` cycles the scenes; each placed URDF loaded at the origin is the placed instance."""
+    import pybullet as pb
+
+    instances, source = scene_instances(4, np.random.default_rng(0), tmp_path)
+    assert [i.scene for i in instances] == list(SCENE_NAMES) and "built-in scenes" in source
+    for inst in instances:
+        scene = build_scene(inst.scene, inst.seed)
+        assert inst.descriptor == truth_descriptor(scene)
+        with scene_client(scene) as (client, body):
+            links = [m.link for m in scene.markers if m.link != HAND_LINK]
+            want = link_frames(client, body, links)
+            placed = pb.loadURDF(str(inst.urdf), useFixedBase=True, physicsClientId=client)
+            got = link_frames(client, placed, links)
+        for link in links:
+            np.testing.assert_allclose(got[link][0], want[link][0], atol=1e-6)
