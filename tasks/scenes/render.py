@@ -116,5 +116,6 @@ def render_scene(scene: Scene, path: Path, width: int = 480, height: int = 360, 
     fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".png.tmp")
     with os.fdopen(fd, "wb") as f:
         f.write(data)
+    Path(tmp).chmod(0o644)
     Path(tmp).replace(path)
     return path
