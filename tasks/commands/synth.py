@@ -29,12 +29,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Synthesise the recording and its truth file; ``SceneError``/``RecordingError`` (exit 2) for bad input."""
     from tasks.errors import SceneError  # noqa: PLC0415
-    from tasks.synth.record import check_output, synthesize, truth_path  # noqa: PLC0415
+    from tasks.scenes.catalog import SCENE_NAMES  # noqa: PLC0415
+    from tasks.synth.paths import check_output, check_scene_name, truth_path  # noqa: PLC0415
 
     if args.seed is not None and args.seed < 0:
         msg = f"--seed must be a non-negative integer, not {args.seed}"
         raise SceneError(msg)
+    check_scene_name(args.scene, SCENE_NAMES)
     check_output(args.out, args.format)
+    from tasks.synth.record import synthesize  # noqa: PLC0415 - pybullet loads here, once the arguments are good
+
     out = synthesize(args.scene, args.seed, args.out, args.format)
     sys.stdout.write(f"{out}\n{truth_path(out)}\n")
     sys.stdout.flush()

@@ -22,10 +22,11 @@ import pybullet as pb
 from tasks.arrays import Points
 from tasks.errors import RecordingError, SceneError
 from tasks.grasp.api import sensor_from_palm
-from tasks.recording.writer import FORMATS, Format, RecordingWriter
+from tasks.recording.writer import RecordingWriter
 from tasks.scenes.kinematics import load_scene, palm_pose_world, truth_chain
 from tasks.scenes.scene import Scene
 from tasks.synth.demonstrator import plan_demonstration
+from tasks.synth.paths import check_output, check_scene_name, truth_path
 from tasks.synth.sensors import (
     NOMINAL_SENSORS,
     draw_sensor_params,
@@ -34,15 +35,7 @@ from tasks.synth.sensors import (
     sample_times,
 )
 from tasks.synth.tracks import joint_types, true_tracks
-from tasks.synth.truth import (
-    META_TOPIC,
-    MOCAP_PREFIX,
-    OBJECT_TOPIC,
-    TRUTH_SUFFIX,
-    WRIST_TOPIC,
-    truth_document,
-    truth_text,
-)
+from tasks.synth.truth import META_TOPIC, MOCAP_PREFIX, OBJECT_TOPIC, WRIST_TOPIC, truth_document, truth_text
 
 START_NS = 1_700_000_000_000_000_000
 """Stamp of the recording's first sample (2023-11-14 22:13:20 UTC), nanoseconds."""
@@ -51,31 +44,6 @@ OBJECT_MODEL_POINTS = 2048
 
 ObjectModelFn = Callable[[Scene, int, np.random.Generator], Points]
 """``(scene, n_points, rng) -> (n, 3)`` world-frame surface samples of the scene's model links at the start."""
-
-
-def truth_path(out: Path) -> Path:
-    """``PATH.truth.json`` beside the recording ``PATH`` (file or rosbag2 folder)."""
-    return out.with_name(out.name + TRUTH_SUFFIX)
-
-
-def check_output(out: Path, fmt: str) -> Format:
-    """The format, checked against the path's suffix (``.mcap``, ``.bag``, a rosbag2 folder without either);
-    ``RecordingError`` for a bad format, a mismatched suffix or an existing output."""
-    if fmt not in FORMATS:
-        msg = f"unknown format {fmt!r} (expected one of {', '.join(FORMATS)})"
-        raise RecordingError(out, msg)
-    suffix = out.suffix.lower()
-    if fmt in ("mcap", "bag") and suffix != f".{fmt}":
-        msg = f"a {fmt} recording must end in .{fmt}, not {suffix or 'no suffix'!r}"
-        raise RecordingError(out, msg)
-    if fmt == "rosbag2" and suffix in (".mcap", ".bag"):
-        msg = f"a rosbag2 recording is a folder; {suffix} suggests --format {suffix[1:]}"
-        raise RecordingError(out, msg)
-    for path in (out, truth_path(out)):
-        if path.exists():
-            msg = "output exists; refusing to overwrite"
-            raise RecordingError(path, msg)
-    return fmt
 
 
 def _stamps(t_s: Any) -> Any:
@@ -170,8 +138,6 @@ def synthesize(scene_name: str, seed: int | None, out_path: str | Path, fmt: str
     from tasks.scenes.catalog import SCENE_NAMES, build_scene  # noqa: PLC0415
     from tasks.scenes.surface import sample_object_model  # noqa: PLC0415
 
-    if scene_name not in SCENE_NAMES:
-        msg = f"unknown scene {scene_name!r} (built-in scenes: {', '.join(SCENE_NAMES)})"
-        raise SceneError(msg)
+    check_scene_name(scene_name, SCENE_NAMES)
     check_output(Path(out_path), fmt)
     return record_scene(build_scene(scene_name, seed), out_path, fmt, sample_object_model)

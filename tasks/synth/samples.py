@@ -23,7 +23,8 @@ def ensure_sample_recordings(folder: Path) -> list[Path]:
     """Paths of the sample recordings of every built-in scene under ``folder``, writing those that are missing
     (a recording whose truth file is missing gets it back from an identical re-run)."""
     from tasks.scenes.catalog import SCENE_NAMES  # noqa: PLC0415
-    from tasks.synth.record import synthesize, truth_path  # noqa: PLC0415
+    from tasks.synth.paths import truth_path  # noqa: PLC0415
+    from tasks.synth.record import synthesize  # noqa: PLC0415
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)

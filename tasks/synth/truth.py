@@ -21,7 +21,6 @@ from tasks.synth.demonstrator import Demonstration
 from tasks.synth.sensors import SensorParams
 
 TRUTH_SCHEMA = "pbd.synth-truth/1"
-TRUTH_SUFFIX = ".truth.json"
 MOCAP_PREFIX = "/mocap/"
 WRIST_TOPIC = "/wrist/pose"
 OBJECT_TOPIC = "/object/model"

@@ -21,7 +21,8 @@ from tasks.recording.load import RecordingData, load_recording
 from tasks.scenes.kinematics import link_frames, load_scene, min_jerk, set_joints
 from tasks.scenes.scene import HAND_LINK, Scene
 from tasks.store import Store
-from tasks.synth.record import START_NS, record_scene, truth_path
+from tasks.synth.paths import truth_path
+from tasks.synth.record import START_NS, record_scene
 from tests.synth.scenes import box_model, door_scene, drawer_scene
 
 

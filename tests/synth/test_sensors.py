@@ -12,7 +12,8 @@ from scipy.spatial.transform import Rotation
 from tasks.ingest.api import ingest_recording
 from tasks.recording.load import load_recording
 from tasks.store import Store
-from tasks.synth.record import record_scene, truth_path
+from tasks.synth.paths import truth_path
+from tasks.synth.record import record_scene
 from tasks.synth.sensors import (
     MOCAP_HZ_RANGE,
     MOCAP_NOISE_RANGE_M,
