@@ -87,13 +87,25 @@ def _angles(points: Points, axis_point: Vector3, axis_dir: Vector3) -> FloatArra
     return ang
 
 
-def fit_rotation(tracks: list[Points], loss_scale_m: float, *, algebraic_only: bool = False) -> RotationFit:
+def fit_rotation(
+    tracks: list[Points],
+    loss_scale_m: float,
+    *,
+    algebraic_only: bool = False,
+    start: tuple[Vector3, Vector3] | None = None,
+    fixed_dir: bool = False,
+) -> RotationFit:
     """Fit one rotation axis to the (n_m, 3) tracks of the markers of one rigid part (metres, world frame).
 
     With ``algebraic_only`` (the paper's baseline) the axis is the algebraic circle fit of the first track.
+    ``start`` (axis point, direction), e.g. the screw axis of the part's orientations (``tasks.fit.rigid``), is
+    refined too and the better of the two refinements is kept: a short noisy arc misleads the algebraic start.
+    With ``fixed_dir`` only the axis point and radii are refined from ``start``, whose direction is kept.
     """
-    from scipy.optimize import least_squares  # noqa: PLC0415 - keep module import light
-
+    if fixed_dir and start is not None:
+        thin = [_thin(t, MAX_FIT_SAMPLES) for t in tracks]
+        d, o, radii, std, _ = _refine(thin, np.asarray(start[0], dtype=np.float64), unit(start[1]), loss_scale_m, 0)
+        return _finish(tracks, o, d, radii, std)
     circles = [circle_from_points_algebraic(t) for t in tracks]
     weights = np.array([c.eigenvalues[1] * len(t) for c, t in zip(circles, tracks, strict=True)])
     best = int(np.argmax(weights))
@@ -103,11 +115,24 @@ def fit_rotation(tracks: list[Points], loss_scale_m: float, *, algebraic_only: b
         d0 = unit((normals * weights[:, None]).sum(axis=0))
     o0 = circles[best].centre
     span = max(float(np.ptp(t, axis=0).max()) for t in tracks)
-    if algebraic_only or not circles[best].radius < LINE_LIKE_RADIUS_RATIO * span:
+    if algebraic_only or (start is None and not circles[best].radius < LINE_LIKE_RADIUS_RATIO * span):
         return _finish(tracks, o0, d0, [c.radius for c in circles], None)
+    thin = [_thin(t, MAX_FIT_SAMPLES) for t in tracks]
+    starts = [(o0, d0)] if circles[best].radius < LINE_LIKE_RADIUS_RATIO * span else []
+    if start is not None:
+        starts.append((np.asarray(start[0], dtype=np.float64), unit(start[1])))
+    d, o, radii, std, _ = min((_refine(thin, so, sd, loss_scale_m, 2) for so, sd in starts), key=lambda r: r[4])
+    return _finish(tracks, o, d, radii, std)
+
+
+def _refine(
+    thin: list[Points], o0: Vector3, d0: Vector3, loss_scale_m: float, n_dir: int
+) -> tuple[Vector3, Vector3, list[float], tuple[float, float], float]:
+    """Geometric least squares of one axis (point, direction; ``n_dir`` 0 keeps ``d0``), per-marker radii;
+    the direction and position std (rad, m; direction std nan when kept) and the robust cost."""
+    from scipy.optimize import least_squares  # noqa: PLC0415 - keep module import light
 
     e1, e2 = perpendicular_basis(d0)
-    thin = [_thin(t, MAX_FIT_SAMPLES) for t in tracks]
     m = len(thin)
     r0 = []
     h0 = []
@@ -117,9 +142,11 @@ def fit_rotation(tracks: list[Points], loss_scale_m: float, *, algebraic_only: b
         r0.append(float(np.median(np.linalg.norm(q - np.outer(h, d0), axis=1))))
         h0.append(float(np.median(h)))
 
+    k = n_dir + 2  # parameters of the axis: direction tilt (0 or 2), point shift (2)
+
     def unpack(x: FloatArray) -> tuple[Vector3, Vector3]:
-        d = unit(d0 + x[0] * e1 + x[1] * e2)
-        o = o0 + x[2] * e1 + x[3] * e2
+        d = unit(d0 + x[0] * e1 + x[1] * e2) if n_dir else d0
+        o = o0 + x[n_dir] * e1 + x[n_dir + 1] * e2
         return d, o
 
     def residuals(x: FloatArray) -> FloatArray:
@@ -129,11 +156,11 @@ def fit_rotation(tracks: list[Points], loss_scale_m: float, *, algebraic_only: b
             q = t - o
             h = q @ d
             radial = np.linalg.norm(q - np.outer(h, d), axis=1)
-            parts.append(radial - x[4 + i])
-            parts.append(h - x[4 + m + i])
+            parts.append(radial - x[k + i])
+            parts.append(h - x[k + m + i])
         return np.concatenate(parts)
 
-    x0 = np.concatenate([[0.0, 0.0, 0.0, 0.0], r0, h0])
+    x0 = np.concatenate([np.zeros(k), r0, h0])
     sol = least_squares(
         residuals,
         x0,
@@ -150,11 +177,11 @@ def fit_rotation(tracks: list[Points], loss_scale_m: float, *, algebraic_only: b
     jac = sol.jac
     try:
         cov = np.linalg.inv(jac.T @ jac) * s2
-        dir_std = float(np.sqrt(max(cov[0, 0] + cov[1, 1], 0.0)))
-        pos_std = float(np.sqrt(max(cov[2, 2] + cov[3, 3], 0.0)))
+        dir_std = float(np.sqrt(max(cov[0, 0] + cov[1, 1], 0.0))) if n_dir else float("nan")
+        pos_std = float(np.sqrt(max(cov[n_dir, n_dir] + cov[n_dir + 1, n_dir + 1], 0.0)))
     except np.linalg.LinAlgError:
         dir_std = pos_std = float("inf")
-    return _finish(tracks, o, d, [float(r) for r in sol.x[4 : 4 + m]], (dir_std, pos_std))
+    return d, o, [float(r) for r in sol.x[k : k + m]], (dir_std, pos_std), float(sol.cost)
 
 
 def _finish(

@@ -17,8 +17,9 @@ from typing import Any
 import numpy as np
 
 from tasks.arrays import FloatArray, Points
-from tasks.fit.geometry import perpendicular_basis
+from tasks.fit.geometry import perpendicular_basis, unit
 from tasks.fit.moments import span_residuals
+from tasks.fit.rigid import PartMotion, ScrewAxis, net_turn, part_motion, rss_about_axis, screw_axis
 from tasks.fit.rotation import RotationFit, fit_rotation
 from tasks.fit.select import KINDS, Kind, SelectParams, choose_bic, choose_eigen, model_costs
 from tasks.fit.translation import TranslationFit, fit_translation
@@ -116,7 +117,11 @@ def fit_span(
     tf = fit_translation(pts)
     sigma = float(np.sqrt(np.mean([tr.sigma_m**2 for tr in group])))
     sigma_hf = float(np.sqrt(np.mean([tr.sigma_hf_m**2 for tr in group])))
-    rf = fit_rotation(pts, 3.0 * sigma)
+    motion = _part_motion(group, prep, t0, t1) if params.use_orientations else None
+    screw = screw_axis(motion) if motion is not None else None
+    rf = fit_rotation(pts, 3.0 * sigma, start=(screw.pos, screw.dir) if screw is not None else None)
+    if screw is not None and np.isfinite(rf.dir_std_rad) and screw.dir_std_rad > 0:
+        rf = _with_screw_direction(pts, rf, screw, 3.0 * sigma)
     n = np.array([float(tf.n)])
     rss_still = np.array([sum(float(((p - p.mean(axis=0)) ** 2).sum()) for p in pts)])
     costs = model_costs(
@@ -128,9 +133,42 @@ def fit_span(
         sigma_model=sigma,
         undefined=params.undefined_nats,
     )[0]
-    kind = force or choose_bic(costs, rf.angle_rad, sel)
+    angle = rf.angle_rad
+    if motion is not None:
+        costs += orientation_costs(motion, rf.dir, sigma, params.undefined_nats)
+        angle = float(np.linalg.norm(net_turn(motion)))
+    kind = force or choose_bic(costs, angle, sel)
     scores: dict[str, float] = {str(k): float(c) for k, c in zip(KINDS, costs, strict=True)}
     return SegmentFit(kind, t0, t1, names, still, rf, tf, scores, tf.eigenvalues, _extent(kind, rf, tf))
+
+
+def _with_screw_direction(pts: list[Points], rf: RotationFit, screw: ScrewAxis, loss_scale_m: float) -> RotationFit:
+    """The circle fit's axis direction and the part's turn axis averaged by their inverse variances, then the
+    axis point and radii refitted about it (rad, m)."""
+    w_fit = 1.0 / max(rf.dir_std_rad, 1e-9) ** 2
+    w_turn = 1.0 / screw.dir_std_rad**2
+    sign = 1.0 if float(np.dot(rf.dir, screw.dir)) >= 0 else -1.0
+    direction = unit(w_fit * rf.dir + w_turn * sign * screw.dir)
+    out = fit_rotation(pts, loss_scale_m, start=(rf.pos, direction), fixed_dir=True)
+    return replace(out, dir_std_rad=float(1.0 / np.sqrt(w_fit + w_turn)))
+
+
+def _part_motion(group: list[Track], prep: PreparedRecording, t0: float, t1: float) -> PartMotion | None:
+    """Orientation over [t0, t1) of the rigid part carried by the group's object markers (the hand's slip)."""
+    objects = [tr for tr in group if tr.name not in prep.hand]
+    samples = [_samples(tr, t0, t1) for tr in objects]
+    samples = [(t, p) for t, p in samples if len(t) >= MIN_SAMPLES]
+    return part_motion([t for t, _ in samples], [p for _, p in samples])
+
+
+def orientation_costs(motion: PartMotion, axis_dir: FloatArray, sigma_m: float, undefined: float) -> FloatArray:
+    """(4,) extra cost (nats) of still, translation, rotation, undefined from the rigid part's orientation: the
+    excess residual (m^2, over its markers) of no turn (translation) or of a turn about ``axis_dir`` only
+    (rotation) over the best turn, at noise ``sigma_m`` per axis; each sample's share truncated at ``undefined``
+    as in the model choice. Still and undefined are left as the positions score them."""
+    no_turn = np.minimum((motion.rss_no_turn - motion.rss_best) / (2.0 * sigma_m**2), undefined)
+    about = np.minimum((rss_about_axis(motion, axis_dir) - motion.rss_best) / (2.0 * sigma_m**2), undefined)
+    return np.array([0.0, float(no_turn.sum()), float(about.sum()), 0.0])
 
 
 def _extent(kind: Kind, rf: RotationFit | None, tf: TranslationFit | None) -> float:

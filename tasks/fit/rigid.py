@@ -1,0 +1,160 @@
+"""Orientation of a rigid part from its markers (Kabsch / Umeyama, ``scipy``'s ``Rotation.align_vectors``).
+
+Markers that move together are one rigid part. On a common time grid the part's orientation relative to its
+first configuration is the rotation that best maps the centred first configuration onto the centred current
+one. In a rotation it turns by the joint angle about the joint axis; in a translation it does not turn. The
+excess residual of a model orientation over the best one (m^2, summed over markers) is the evidence the model
+choice uses, and the screw axis of the motion (direction from the turn, point from the centroid's motion) is a
+start for the geometric circle fit that a short, noisy arc alone cannot give.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from tasks.arrays import FloatArray, Points, Vector3
+from tasks.fit.geometry import perpendicular_basis, unit
+
+MIN_MARKERS = 3
+"""Markers needed to fix an orientation."""
+MIN_SPREAD_M = 0.005
+"""Second singular value (rms, m) the centred marker configuration needs: collinear markers fix no turn about
+their line."""
+MAX_GAP_SAMPLES = 3.0
+"""A marker counts at a grid time only when its samples on either side are at most this many median sample
+intervals apart (occlusion bursts are not interpolated across)."""
+REFERENCE_SAMPLES = 5
+"""Grid samples averaged into the reference configuration (the part barely moves at a motion's start)."""
+
+
+@dataclass(frozen=True)
+class PartMotion:
+    """A rigid part on a time grid: times (s), per-sample rotation vectors (rad, world frame) of the turn since
+    the reference configuration, centroids (m), the reference configuration centred (m, (k, 3)), and per-sample
+    squared residuals (m^2, summed over markers) of the best rotation, of no turn, and the markers at each time."""
+
+    t_s: FloatArray
+    rotvecs: FloatArray
+    centroids: Points
+    reference: Points
+    rss_best: FloatArray
+    rss_no_turn: FloatArray
+    current: FloatArray
+
+
+def _on_grid(t: FloatArray, p: Points, grid: FloatArray) -> tuple[Points, FloatArray]:
+    """Marker positions interpolated at ``grid`` and whether each is bracketed by close samples."""
+    dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+    idx = np.searchsorted(t, grid, side="left")
+    inside = (idx > 0) & (idx < len(t))
+    exact = (idx < len(t)) & (t[np.minimum(idx, len(t) - 1)] == grid)
+    gap = np.where(inside, t[np.minimum(idx, len(t) - 1)] - t[np.maximum(idx - 1, 0)], np.inf)
+    ok = exact | (inside & (gap <= MAX_GAP_SAMPLES * dt))
+    pts: Points = np.column_stack([np.interp(grid, t, p[:, i]) for i in range(3)])
+    return pts, ok
+
+
+def part_motion(times: list[FloatArray], tracks: list[Points]) -> PartMotion | None:
+    """Orientation over time of the rigid part carried by markers (times in s, (n_m, 3) points in m), or None
+    with fewer than ``MIN_MARKERS`` markers seen together, or a configuration too nearly collinear."""
+    if len(tracks) < MIN_MARKERS:
+        return None
+    longest = max(range(len(times)), key=lambda i: len(times[i]))
+    grid = times[longest]
+    on = [_on_grid(t, p, grid) for t, p in zip(times, tracks, strict=True)]
+    ok = np.all([o for _, o in on], axis=0)
+    if ok.sum() < REFERENCE_SAMPLES + 2:
+        return None
+    pts = np.stack([p for p, _ in on], axis=1)[ok]  # (g, m, 3)
+    centroids = pts.mean(axis=1)
+    centred = pts - centroids[:, None, :]
+    reference = centred[:REFERENCE_SAMPLES].mean(axis=0)
+    reference -= reference.mean(axis=0)
+    if float(np.linalg.svd(reference, compute_uv=False)[1]) / np.sqrt(len(reference)) < MIN_SPREAD_M:
+        return None
+    rotvecs = np.empty((len(pts), 3))
+    rss_best = np.empty(len(pts))
+    for g in range(len(pts)):
+        rot, _ = Rotation.align_vectors(centred[g], reference)
+        rotvecs[g] = rot.as_rotvec()
+        rss_best[g] = float(((centred[g] - rot.apply(reference)) ** 2).sum())
+    rss_no_turn = ((centred - reference[None]) ** 2).sum(axis=(1, 2))
+    return PartMotion(grid[ok], rotvecs, centroids, reference, rss_best, rss_no_turn, centred)
+
+
+def rss_about_axis(motion: PartMotion, axis_dir: Vector3) -> FloatArray:
+    """Per-sample squared residual (m^2) of the part turned only about ``axis_dir``, by the angle that fits best
+    (the turn's component along the axis, then the best angle of that one-parameter family)."""
+    d = unit(axis_dir)
+    ref = motion.reference
+    ref_perp = ref - np.outer(ref @ d, d)
+    out = np.empty(len(motion.t_s))
+    for g in range(len(motion.t_s)):
+        cur = motion.current[g]
+        cur_perp = cur - np.outer(cur @ d, d)
+        cross = float(np.sum(np.cross(ref_perp, cur_perp) @ d))
+        dot = float(np.sum(ref_perp * cur_perp))
+        angle = float(np.arctan2(cross, dot))
+        rot = Rotation.from_rotvec(angle * d)
+        out[g] = float(((cur - rot.apply(ref)) ** 2).sum())
+    return out
+
+
+def net_turn(motion: PartMotion) -> FloatArray:
+    """Rotation vector (rad, world) of the part from its reference to its last configuration (the median over
+    the last ``REFERENCE_SAMPLES`` samples' rotations)."""
+    tail = Rotation.from_rotvec(motion.rotvecs[-REFERENCE_SAMPLES:])
+    out: FloatArray = tail.mean().as_rotvec()
+    return out
+
+
+@dataclass(frozen=True)
+class ScrewAxis:
+    """Axis of a part's turn: unit direction (right-hand rule), point nearest the start centroid (m), net turn
+    (rad) and the direction's standard deviation (rad) at noise ``sigma_m``."""
+
+    dir: Vector3
+    pos: Vector3
+    turn_rad: float
+    dir_std_rad: float
+
+
+def screw_axis(motion: PartMotion) -> ScrewAxis | None:
+    """The screw axis of the part's motion (orientations for the direction, the centroids' motion for the
+    point), or None when it turns too little to fix an axis (under 0.05 rad). The direction's std comes from
+    the Kabsch residual's noise and each sample's turn information about the directions across the axis."""
+    turns = np.linalg.norm(motion.rotvecs, axis=1)
+    moving = turns > 0.5 * float(turns.max())
+    if float(turns.max()) < 0.05 or moving.sum() < 2:
+        return None
+    scatter = motion.rotvecs[moving].T @ motion.rotvecs[moving]
+    d = unit(np.linalg.eigh(scatter)[1][:, 2])
+    if float(np.dot(net_turn(motion), d)) < 0:
+        d = -d
+    # centroid c_t = R_t (c_0 - o) + o + slide d: (I - R_t) o = c_t - R_t c_0 - slide d, solved across the axis
+    rows = []
+    rhs = []
+    c0 = motion.centroids[:REFERENCE_SAMPLES].mean(axis=0)
+    e1, e2 = perpendicular_basis(d)
+    plane = np.column_stack([e1, e2])
+    tilt_cov = np.zeros((2, 2))
+    turn_sq = 0.0
+    for g in np.flatnonzero(moving):
+        rot = Rotation.from_rotvec(motion.rotvecs[g]).as_matrix()
+        b = motion.centroids[g] - rot @ c0
+        rows.append(np.eye(3) - rot)
+        rhs.append(b - float(np.dot(b, d)) * d)
+        cur = motion.current[g]
+        info = (cur**2).sum() * np.eye(3) - cur.T @ cur  # Kabsch turn information, m^2 per sigma^2
+        theta = float(np.dot(motion.rotvecs[g], d))
+        tilt_cov += theta**2 * np.linalg.pinv(plane.T @ info @ plane)
+        turn_sq += theta**2
+    a = np.concatenate([*rows, d[None, :]])
+    sol, *_ = np.linalg.lstsq(a, np.concatenate([*rhs, [float(np.dot(c0, d))]]), rcond=None)
+    dof = max(3 * len(motion.reference) - 6, 1)
+    sigma2 = float(np.mean(motion.rss_best)) / dof
+    dir_std = float(np.sqrt(sigma2 * np.trace(tilt_cov))) / max(turn_sq, 1e-12)
+    return ScrewAxis(d, sol, float(np.dot(net_turn(motion), d)), dir_std)
