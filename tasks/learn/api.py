@@ -16,6 +16,7 @@ import numpy as np
 from schemas.descriptor import Descriptor, Grasp, ObjectRef, Primitive
 from tasks.arrays import Points
 from tasks.errors import FitError, GraspError
+from tasks.learn.boundaries import refine_boundaries
 from tasks.learn.chain import (
     HAND_ONLY,
     SegmentFit,
@@ -90,6 +91,7 @@ def learn_chain(rec: RecordingData, params: LearnParams, rng: np.random.Generato
     if params.classifier == "bic":
         fits = merge_adjacent(prep, fits, params)
         fits = refine_extents(prep, fits)
+        fits = refine_boundaries(prep, fits)
         fits = drop_small(fits, params.min_motion_m)
     chain = tuple(_primitive(f) for f in fits if f.kind in ("rotation", "translation"))
     warnings = list(prep.warnings)

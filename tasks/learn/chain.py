@@ -242,7 +242,7 @@ def merge_adjacent(prep: PreparedRecording, fits: list[SegmentFit], params: Lear
     return out
 
 
-def _rest_window(name: str, fits: list[SegmentFit], i: int, step: int) -> tuple[float, float] | None:
+def rest_window(name: str, fits: list[SegmentFit], i: int, step: int) -> tuple[float, float] | None:
     """Time span (s) of the run of segments next to segment i (``step`` -1 before, +1 after) where marker
     ``name`` is still: its rest there, with the slow start or stop of the motion a small part of it."""
     j = i + step
@@ -258,7 +258,7 @@ def _rest_window(name: str, fits: list[SegmentFit], i: int, step: int) -> tuple[
 
 def _rest_samples(track: Track, fits: list[SegmentFit], i: int, step: int) -> Points | None:
     """Samples of ``track`` in its rest window next to segment i (None when it moves there)."""
-    window = _rest_window(track.name, fits, i, step)
+    window = rest_window(track.name, fits, i, step)
     if window is None:
         return None
     pts = _samples(track, *window)[1]
@@ -297,8 +297,8 @@ def _orientation_angle(
         if name not in prep.orientations:
             continue
         times, quats = prep.orientations[name]
-        before = _rest_window(name, fits, i, -1)
-        after = _rest_window(name, fits, i, +1)
+        before = rest_window(name, fits, i, -1)
+        after = rest_window(name, fits, i, +1)
         if before is None or after is None:
             continue
         r0 = _rest_orientation(times, quats, before)

@@ -1,0 +1,132 @@
+"""Primitive boundaries moved out to where the part leaves and reaches its rests.
+
+The change-point search places a boundary where a moving model starts to pay for itself; a slow start of a part
+whose markers lie near its axis (a bottle cap turned by a min-jerk twist) stays cheaper as "still" for a second or
+more. Here the part's coordinate along its fitted primitive (angle about the axis, weighted by r^2 over the
+markers, or distance along the direction) is followed back from the primitive into the rest before it, and on
+into the rest after it: the boundary becomes the last (first) time the smoothed coordinate is within
+``REST_SIGMAS`` noise sigmas of the rest level, that is where the motion is first seen above the noise.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from tasks.arrays import FloatArray
+from tasks.fit.geometry import perpendicular_basis
+from tasks.learn.chain import SegmentFit, rest_window
+from tasks.learn.prepare import MIN_SAMPLES, PreparedRecording
+from tasks.segment.tracks import Track
+
+SMOOTH_S = 0.1
+"""Moving-average window (s) of the part's coordinate before the rest test."""
+REST_SIGMAS = 4.0
+"""The smoothed coordinate leaves the rest when it is this many of its noise sigmas from the rest level."""
+
+
+def _coordinate(f: SegmentFit, tracks: list[Track], grid: FloatArray) -> tuple[FloatArray, float] | None:
+    """The part's coordinate on ``grid`` (rad or m; NaN where a marker is missing) and its per-sample noise."""
+    cols = []
+    wts = []
+    sig2 = []
+    for tr in tracks:
+        if len(tr.t_s) < MIN_SAMPLES:
+            continue
+        if f.kind == "rotation" and f.rotation is not None:
+            e1, e2 = perpendicular_basis(f.rotation.dir)
+            q = tr.points - f.rotation.pos
+            radius = float(np.median(np.hypot(q @ e1, q @ e2)))
+            coord = np.unwrap(np.arctan2(q @ e2, q @ e1))
+            weight = radius**2
+            noise2 = tr.sigma_hf_m**2 / max(radius**2, 1e-12)
+        elif f.kind == "translation" and f.translation is not None:
+            coord = tr.points @ f.translation.dir
+            weight = 1.0
+            noise2 = tr.sigma_hf_m**2
+        else:
+            return None
+        idx = np.searchsorted(tr.t_s, grid)
+        ok = (idx > 0) & (idx < len(tr.t_s))
+        col = np.interp(grid, tr.t_s, coord)
+        col[~ok] = np.nan
+        cols.append(col - np.nanmedian(col))
+        wts.append(weight)
+        sig2.append(weight**2 * noise2)
+    if not cols:
+        return None
+    stack = np.array(cols)
+    w = np.array(wts)[:, None] * np.isfinite(stack)
+    total = w.sum(axis=0)
+    with np.errstate(invalid="ignore"):
+        out: FloatArray = np.where(total > 0, np.nansum(stack * w, axis=0) / np.where(total > 0, total, 1.0), np.nan)
+    noise = float(np.sqrt(np.sum(sig2))) / float(np.sum(wts))
+    return out, noise
+
+
+def _smooth(values: FloatArray, width: int) -> FloatArray:
+    """Centred moving average over ``width`` samples ignoring NaNs (NaN where none)."""
+    ok = np.isfinite(values)
+    kernel = np.ones(max(width, 1))
+    num = np.convolve(np.where(ok, values, 0.0), kernel, mode="same")
+    den = np.convolve(ok.astype(np.float64), kernel, mode="same")
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out: FloatArray = np.where(den > 0, num / np.where(den > 0, den, 1.0), np.nan)
+    return out
+
+
+def _departure(t: FloatArray, c: FloatArray, rest: FloatArray, noise: float) -> float | None:
+    """Time (s) nearest the motion where the coordinate is last within ``REST_SIGMAS`` sigmas of the rest level,
+    scanning from the motion (``t`` ordered from the motion outwards, ``rest`` the rest samples' coordinates)."""
+    finite = rest[np.isfinite(rest)]
+    if len(finite) < MIN_SAMPLES:
+        return None
+    level = float(np.median(finite))
+    within = np.abs(c - level) <= max(REST_SIGMAS * noise, 1e-12)
+    hits = np.flatnonzero(within & np.isfinite(c))
+    if not len(hits):
+        return None
+    return float(t[hits[0]])
+
+
+def refine_boundaries(prep: PreparedRecording, fits: list[SegmentFit]) -> list[SegmentFit]:
+    """Each primitive's start and end (s) moved into the neighbouring rests of its part up to where the part is
+    seen to leave or reach them; the still segments beside it shrink to match."""
+    by_name = {tr.name: tr for tr in prep.tracks}
+    out = list(fits)
+    for i, f in enumerate(fits):
+        if f.kind not in ("rotation", "translation"):
+            continue
+        names = [n for n in f.markers if n not in prep.hand] or list(f.markers)
+        tracks = [by_name[n] for n in names]
+        windows = [rest_window(n, fits, i, -1) for n in names], [rest_window(n, fits, i, +1) for n in names]
+        lo = max((w[0] for w in windows[0] if w is not None), default=None)
+        hi = min((w[1] for w in windows[1] if w is not None), default=None)
+        start, end = f.t_start, f.t_end
+        grid = max(tracks, key=lambda tr: len(tr.t_s)).t_s
+        dt = float(np.median(np.diff(grid))) if len(grid) > 1 else 0.0
+        got = _coordinate(f, tracks, grid)
+        if got is None or dt <= 0:
+            continue
+        coord, noise = got
+        width = max(1, round(SMOOTH_S / dt))
+        smooth = _smooth(coord, width)
+        noise /= np.sqrt(width)
+        if lo is not None:
+            before = (grid >= lo) & (grid < f.t_start)
+            rest = smooth[before][: max(len(smooth[before]) // 2, 1)]
+            t_back = grid[before][::-1]
+            found = _departure(t_back, smooth[before][::-1], rest, noise)
+            start = min(start, found) if found is not None else start
+        if hi is not None:
+            after = (grid >= f.t_end) & (grid < hi)
+            rest = smooth[after][len(smooth[after]) // 2 :]
+            found = _departure(grid[after], smooth[after], rest, noise)
+            end = max(end, found) if found is not None else end
+        out[i] = replace(f, t_start=float(start), t_end=float(end))
+        if i > 0 and out[i - 1].kind == "still" and out[i - 1].t_end == f.t_start:
+            out[i - 1] = replace(out[i - 1], t_end=float(start))
+        if i + 1 < len(out) and out[i + 1].kind == "still" and out[i + 1].t_start == f.t_end:
+            out[i + 1] = replace(out[i + 1], t_start=float(end))
+    return out
