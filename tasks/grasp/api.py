@@ -2,12 +2,14 @@
 
 The demonstrator's wrist tracker pose (world frame, metres, quaternion [x, y, z, w]) is turned into a seed palm
 pose through the sensor-to-palm offset; the planner (``planner.py``) searches Barrett eigengrasp amplitudes and
-a palm pose near it and returns the force-closure grasp closest to the seed (of the five closest, the first
-that holds the part under a quick shake test). ``Grasp.wrist_*`` is the pose of
-the hand base (palm) frame of ``barrett.py`` in the world, +z the approach direction; ``Grasp.eigengrasps`` is
-the pre-grasp posture (a1, a2): execute by placing the hand there and closing the fingers until contact
-(``closing.close_fingers``). ``quality`` holds epsilon, volume, force_closure, the contact count and the closed
-DOFs ``closed_dofs`` [spread, f1, f2, f3] (radians) found in planning.
+a palm pose near it and returns the force-closure grasp closest to the demonstration (of the five closest, the
+first that holds the part under a quick shake test). ``Grasp.wrist_*`` is the pose of the hand base (palm) frame
+of ``barrett.py`` in the world, +z the approach direction; ``Grasp.eigengrasps`` (a1, a2) is the posture the hand
+closes towards: execute by opening the hand at spread 1.13 + a1 (fingers ``barrett.OPEN_FINGER_RAD``), moving the
+palm along +z to the wrist pose and closing the fingers towards a2 (``barrett.CLOSE_AMPLITUDE``: fully) until they
+stop on the part, as ``tasks.simulate`` and the scenes' truth grasps do. ``quality`` holds epsilon, volume,
+force_closure, the contact count, the closed DOFs ``closed_dofs`` [spread, f1, f2, f3] (radians) found in
+planning, and ``demo_offset_m`` / ``demo_angle_rad``: how far the palm lies off the demonstrated approach.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ from scipy.spatial.transform import Rotation, Slerp
 from schemas.descriptor import Grasp
 from tasks.arrays import FloatArray, Points, Vector3
 from tasks.errors import GraspError
+from tasks.grasp import barrett
 from tasks.grasp.object_model import ObjectModel, build_object_model, check_object_points, crop_points
 from tasks.grasp.planner import GraspCandidate, PlannerParams, rank_tier, search
 from tasks.grasp.shake import QUICK_SHAKE, shake_test
@@ -111,7 +114,7 @@ def grasp_from_candidate(candidate: GraspCandidate) -> Grasp:
     q = candidate.quality
     return Grasp(
         hand=HAND,
-        eigengrasps=(float(candidate.state[0]), float(candidate.state[1])),
+        eigengrasps=(barrett.spread_amplitude(float(candidate.closed[0])), barrett.CLOSE_AMPLITUDE),
         wrist_position=(float(candidate.position[0]), float(candidate.position[1]), float(candidate.position[2])),
         wrist_orientation=(
             float(candidate.quat_xyzw[0]),
@@ -125,6 +128,8 @@ def grasp_from_candidate(candidate: GraspCandidate) -> Grasp:
             "force_closure": q.force_closure,
             "contacts": q.contacts,
             "closed_dofs": [float(candidate.closed[0]), *(float(v) for v in candidate.closed[1:4])],
+            "demo_offset_m": candidate.offset_m,
+            "demo_angle_rad": candidate.angle_rad,
         },
     )
 
@@ -138,16 +143,17 @@ def plan_on_model(
     *,
     shake_checks: int = SHAKE_CHECKS,
 ) -> GraspCandidate:
-    """Best candidate on a built model from a palm seed: the force-closure grasps in rank order (epsilon tier,
-    then closeness to the seed), the first of up to ``shake_checks`` that holds under ``QUICK_SHAKE`` (else the
-    first); without force closure, the best-ranked candidate of all rounds."""
+    """Best candidate on a built model from a palm seed: the force-closure grasps near the demonstration in order
+    of closeness, the first of up to ``shake_checks`` that holds under ``QUICK_SHAKE`` (else the first); without
+    a near force closure after ``ROUNDS`` rounds, the closest grasp near the demonstration (force_closure False:
+    a distant grasp would not be the demonstrated one), else the closest of all."""
     pos, quat = _check_seed(seed_position, seed_quat_xyzw)
     seed_rot = Rotation.from_quat(quat).as_matrix()
     tried: list[GraspCandidate] = []
     for _ in range(ROUNDS):
         found = search(model, seed_rot, pos, rng, params)
         tried += found
-        closure = [c for c in found if rank_tier(c.quality) < 2]
+        closure = [c for c in found if c.near and rank_tier(c.quality) == 0]
         if closure:
             for cand in closure[:shake_checks]:
                 if shake_test(model, grasp_from_candidate(cand), QUICK_SHAKE).holds:
@@ -156,7 +162,7 @@ def plan_on_model(
     if not tried:
         msg = "no collision-free grasp found near the seed pose"
         raise GraspError(msg)
-    return min(tried, key=lambda c: (rank_tier(c.quality), c.closeness))
+    return min(tried, key=lambda c: (not c.near, c.closeness, rank_tier(c.quality)))
 
 
 def plan_grasp(

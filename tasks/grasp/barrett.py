@@ -50,6 +50,13 @@ EIGENGRASPS: FloatArray = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 1.0, 1.0] /
 AMPLITUDE_LIMIT = 4.0
 """Eigengrasp amplitudes are searched within ±4 (GraspIt!'s range for the Barrett hand)."""
 
+FINGER_STRAIGHT_RAD = math.pi / 2
+"""Proximal angle at which a finger's proximal link points along the approach (+z), radians."""
+OPEN_FINGER_RAD = FINGER_STRAIGHT_RAD - 0.3
+"""The open hand a grasp is executed from: fingers 0.3 rad past straight, outwards (the simulator's pre-grasp)."""
+CLOSE_AMPLITUDE = (2.44 - 0.79) * math.sqrt(3.0)
+"""EG2 amplitude that puts all three fingers at their 2.44 rad limit: the target a grasp closes towards."""
+
 DISTAL_OFFSET_RAD = math.radians(40.0)
 DISTAL_RATIO = 1.0 / 3.0
 """Distal coupling: distal = proximal * DISTAL_RATIO + DISTAL_OFFSET_RAD (BH8 TorqueSwitch gearing)."""
@@ -128,6 +135,16 @@ def eigengrasps_from_dofs(dofs: npt.ArrayLike) -> tuple[float, float]:
     """Least-squares amplitudes (a1, a2) of (4,) DOFs in the eigengrasp basis (projection onto EG1, EG2)."""
     delta = clamp_dofs(dofs) - EIGENGRASP_ORIGIN
     return float(delta @ EIGENGRASPS[0]), float(delta @ EIGENGRASPS[1])
+
+
+def spread_amplitude(spread_rad: float) -> float:
+    """EG1 amplitude a1 of a spread angle (radians): spread - 1.13."""
+    return float(spread_rad - EIGENGRASP_ORIGIN[0])
+
+
+def open_dofs(spread_rad: float, finger_rad: float = OPEN_FINGER_RAD) -> FloatArray:
+    """(4,) DOFs of the open hand at a spread (radians): all three fingers at ``finger_rad``."""
+    return clamp_dofs(np.array([spread_rad, finger_rad, finger_rad, finger_rad]))
 
 
 def joint_positions(dofs: npt.ArrayLike, distal: npt.ArrayLike | None = None) -> FloatArray:

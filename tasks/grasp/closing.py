@@ -168,3 +168,15 @@ def contacts_of(client_id: int, hand: int, obj: int, within: float = 0.002, merg
     if not positions:
         return Contacts(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, dtype=np.int64))
     return Contacts(np.array(positions), np.array(normals), np.array(links, dtype=np.int64))
+
+
+def open_free(client_id: int, hand: int, obj: int, spread_rad: float) -> FloatArray:
+    """(4,) DOFs of the open hand at ``spread_rad`` (fingers at ``barrett.OPEN_FINGER_RAD``), opened further in
+    0.1 rad steps (down to flat) while it touches the object at its current pose; applied to the hand."""
+    finger = barrett.OPEN_FINGER_RAD
+    while True:
+        dofs = barrett.open_dofs(spread_rad, finger)
+        barrett.apply_dofs(client_id, hand, dofs)
+        if finger <= 0.0 or min_distance(client_id, hand, obj) >= 0.0:
+            return dofs
+        finger = max(0.0, finger - 0.1)

@@ -3,12 +3,14 @@
 Search space (GraspIt!'s approach space around the demonstrated palm pose): x = (a1, a2, d, θ1, θ2) with
 eigengrasp amplitudes a1, a2 in ±4, approach distance d in -30..200 mm (palm to the pivot point along the approach
 axis, negative = past it), roll θ1 about the approach axis and tilt θ2 about the palm x axis, both
-within ±60° and both pivoting about the point where the seed's approach ray meets the object. Energy is the
-contact energy over the virtual contacts (``contact_energy``), vectorised with a KD-tree over the object points;
-states where the hand's surface samples enter the object are illegal. The lowest-energy distinct states (in
-three spread ranges) and a few pre-grasps on the seed's approach line are then tried in pybullet: approach up
-to 30 mm to contact, close the fingers until contact, epsilon and volume of the grasp wrench space.
-Force-closure grasps (epsilon >= 0.05 first) are ranked by closeness to the demonstrated palm pose.
+within ±25° (GraspIt!'s ±60° let distant grasps win) and both pivoting about the point where the seed's approach
+ray meets the object. Energy is the contact energy over the virtual contacts (``contact_energy``), vectorised with
+a KD-tree over the object points; states where the hand's surface samples enter the object are illegal. The
+demonstrated pose itself, a few poses on its approach, and the lowest-energy distinct states (in three spread
+ranges) are then executed in pybullet as the robot executes a grasp: the hand open at the state's spread (fingers
+``barrett.OPEN_FINGER_RAD``), approach up to 30 mm to contact, close the fingers until contact; epsilon and
+volume of the grasp wrench space. Grasps off the demonstrated approach by more than 25 mm or 25° are set aside;
+the rest, force closure first, are ranked by closeness to the demonstration (``closeness``).
 """
 
 from __future__ import annotations
@@ -38,42 +40,42 @@ SPREAD_BINS = (0.0, 0.7, 2.0, 4.0)
 CHAIN_SPREADS = (-1.13, 0.0, 0.44, 2.0, -0.5, 1.2)
 """Start amplitude a1 of each annealing chain: spread 0, 1.13 (origin), π/2 and π, then in between."""
 LINE_SPREADS = (-1.13, 0.0)
-LINE_POSES = (
-    *((dist, 0.0, a2) for dist in (0.005, 0.035, 0.065) for a2 in (0.0, -0.68, -1.37)),
-    (0.005, math.radians(45.0), 0.0),
-    (0.005, math.radians(-45.0), 0.0),
-)
-"""Besides the annealed states, pre-grasps on the seed's approach line are tried, (distance m, roll rad, a2):
-palm 5, 35 or 65 mm before the pivot with the fingers at 0.79, 0.4 or 0 rad (flat), and rolled ±45° at 5 mm, each
-with spread 0 and 1.13 rad (then opened or curled until free of the object). The contact energy favours
-curled fingers beside thin parts; these cover the demonstrator's own approach."""
-PRESHAPE_OPENINGS_RAD = (0.0, 0.8)
-"""Each posture is tried as it is and, unless that gives a good force closure, with its fingers opened by 0.8 rad."""
+LINE_POSES = tuple((back, math.radians(roll)) for back in (0.0, 0.02) for roll in (0.0, 15.0, -15.0))
+"""Besides the annealed states, the demonstrated pose itself and its neighbours on the demonstrated approach are
+tried: (palm m behind the demonstrated palm, roll rad about the approach), each with spread 0 and 1.13 rad."""
 BACK_OFF_M = 0.02
 """A pre-grasp found in collision in pybullet is moved back along its approach axis by up to 20 mm."""
 
 
 @dataclass(frozen=True)
 class PlannerParams:
-    """Planner settings: annealing steps and chains, candidates tried in pybullet, ranges, friction, ranking."""
+    """Planner settings: annealing steps and chains, candidates tried in pybullet, ranges (the wrist angles
+    within ±25°: a grasp must stay near the demonstration), friction; ranking scales (lateral offset from the
+    demonstrated approach 20 mm, angle 20°, advance along it 50 mm) and the neighbourhood a grasp must lie in
+    (25 mm off the demonstrated approach, 25°)."""
 
     steps: int = 400
     chains: int = 4
     candidates: int = 12
     schedule: Schedule = field(default_factory=Schedule)
     distance_range_m: tuple[float, float] = (-0.03, 0.20)
-    angle_limit_rad: float = math.radians(60.0)
+    angle_limit_rad: float = math.radians(25.0)
     amplitude_limit: float = barrett.AMPLITUDE_LIMIT
     approach_max_m: float = 0.03
     mu: float = DEFAULT_MU
-    position_scale_m: float = 0.05
-    angle_scale_rad: float = math.radians(30.0)
+    position_scale_m: float = 0.02
+    angle_scale_rad: float = math.radians(20.0)
+    advance_scale_m: float = 0.05
+    near_position_m: float = 0.025
+    near_angle_rad: float = math.radians(25.0)
     max_pivot_m: float = 0.20
 
 
 @dataclass(frozen=True)
 class GraspCandidate:
-    """A grasp tried in pybullet: state x (5,), palm pose (world), closed joints (7,), quality, ranking cost."""
+    """A grasp tried in pybullet: state x (5,), palm pose (world), closed joints (7,), quality, ranking cost,
+    its offset (m) from the demonstrated approach and angle (rad) from the demonstrated palm, and whether both are
+    within the planner's neighbourhood."""
 
     state: FloatArray
     position: Vector3
@@ -82,6 +84,9 @@ class GraspCandidate:
     quality: GraspQuality
     energy: float
     closeness: float
+    offset_m: float
+    angle_rad: float
+    near: bool
 
 
 @dataclass(frozen=True)
@@ -155,67 +160,79 @@ def _select(trace: AnnealTrace, count: int, scale: FloatArray) -> list[int]:
     return chosen
 
 
-def _better(a: GraspCandidate, b: GraspCandidate) -> bool:
-    """Whether ``a`` beats ``b`` for the same annealed state: better tier, then larger epsilon."""
-    return (rank_tier(a.quality), -a.quality.epsilon) < (rank_tier(b.quality), -b.quality.epsilon)
-
-
 def rank_tier(quality: GraspQuality) -> int:
-    """0: force closure with epsilon >= ``MIN_GOOD_EPSILON``; 1: weaker force closure; 2: no force closure."""
-    if not quality.force_closure:
-        return 2
-    return 0 if quality.epsilon >= MIN_GOOD_EPSILON else 1
+    """0: force closure; 2: no force closure (1 is kept for weak closures, unused)."""
+    return 0 if quality.force_closure else 2
 
 
-def closeness(rot: FloatArray, pos: Vector3, seed_rot: FloatArray, seed_pos: Vector3, params: PlannerParams) -> float:
-    """Ranking cost: palm offset from the seed over 50 mm plus rotation angle over 30° (unitless)."""
-    angle = float(Rotation.from_matrix(seed_rot.T @ rot).magnitude())
-    return float(np.linalg.norm(pos - seed_pos)) / params.position_scale_m + angle / params.angle_scale_rad
+@dataclass(frozen=True)
+class DemoOffset:
+    """Where a palm pose lies from the demonstration: offset (m) from the demonstrated approach segment (the
+    demonstrated palm moved up to ``approach_max_m`` along its approach, no further than the object), advance (m) along the approach from the
+    demonstrated palm (negative = behind it), angle (rad) between the palm rotations."""
+
+    lateral_m: float
+    advance_m: float
+    angle_rad: float
+
+
+def demo_offset(rot: FloatArray, pos: Vector3, space: ApproachSpace, params: PlannerParams) -> DemoOffset:
+    """Offset of a palm pose (rotation (3, 3), position (3,) m, world) from the demonstrated one."""
+    approach = space.seed_rot[:, 2]
+    rel = pos - space.seed_pos
+    advance = float(rel @ approach)
+    on_segment = float(np.clip(advance, 0.0, min(max(space.pivot_m, 0.0), params.approach_max_m)))
+    lateral = float(np.linalg.norm(rel - on_segment * approach))
+    angle = float(Rotation.from_matrix(space.seed_rot.T @ rot).magnitude())
+    return DemoOffset(lateral, advance, angle)
+
+
+def closeness(offset: DemoOffset, params: PlannerParams) -> float:
+    """Ranking cost (unitless): offset over 20 mm + angle over 20° + |advance| over 50 mm."""
+    return (
+        offset.lateral_m / params.position_scale_m
+        + offset.angle_rad / params.angle_scale_rad
+        + abs(offset.advance_m) / params.advance_scale_m
+    )
+
+
+def is_near(offset: DemoOffset, params: PlannerParams) -> bool:
+    """Whether a grasp lies in the demonstration's neighbourhood (lateral offset, angle within the limits)."""
+    return offset.lateral_m <= params.near_position_m and offset.angle_rad <= params.near_angle_rad
 
 
 def _free_pregrasp(  # noqa: PLR0917 -- private helper
-    client_id: int, hand: int, obj: int, rot: FloatArray, pos: Vector3, quat: FloatArray, dofs: FloatArray
+    client_id: int, hand: int, obj: int, rot: FloatArray, pos: Vector3, quat: FloatArray, spread: float
 ) -> tuple[Vector3, FloatArray] | None:
-    """The nearest collision-free pre-grasp: back off along the approach axis in 4 mm steps (up to 20 mm) and
-    at each step try finger angles within 0.8 rad of the given ones (0.1 rad steps); all back-offs with opening
-    fingers first, then with curling ones (the eigengrasp keeps the three fingers equal); None when nothing is free."""
+    """The nearest collision-free open pre-grasp: the open hand (``closing.open_free``: fingers opened further
+    only when they touch) at the pose, else moved back along the approach axis in 4 mm steps (up to 20 mm);
+    None when nothing is free."""
     approach = rot[:, 2]
-    start = float(dofs[1])
-    steps = np.arange(1, 9) * 0.1
-    opening = [a for a in start - steps if a >= 0.0] + ([0.0] if start > 0.0 else [])
-    curling = [a for a in start + steps if a <= float(barrett.DOF_UPPER[1])]
-    angles = opening + curling
-    backs = np.arange(0.0, BACK_OFF_M + 1e-9, 0.004)
-    for angles in ([start, *opening], curling):
-        for back in backs:
-            trial_pos = pos - back * approach
-            closing.set_pose(client_id, hand, trial_pos, quat)
-            for angle in angles:
-                trial = dofs.copy()
-                trial[1:] = angle if angle != start else dofs[1:]
-                barrett.apply_dofs(client_id, hand, trial)
-                if closing.min_distance(client_id, hand, obj) >= 0.0:
-                    return trial_pos, trial
+    for back in np.arange(0.0, BACK_OFF_M + 1e-9, 0.004):
+        trial_pos = pos - back * approach
+        closing.set_pose(client_id, hand, trial_pos, quat)
+        dofs = closing.open_free(client_id, hand, obj, spread)
+        if closing.min_distance(client_id, hand, obj) >= 0.0:
+            return trial_pos, dofs
     return None
 
 
-def evaluate_pose(  # noqa: PLR0917 -- pybullet ids, model, pose, posture, params
+def evaluate_pose(  # noqa: PLR0917 -- pybullet ids, model, pose, spread, params
     client_id: int,
     hand: int,
     obj: int,
     model: ObjectModel,
     rot: FloatArray,
     pos: Vector3,
-    dofs: FloatArray,
+    spread: float,
     params: PlannerParams,
 ) -> tuple[Vector3, FloatArray, FloatArray, GraspQuality] | None:
-    """Approach, close and score one pre-grasp in pybullet; a pre-grasp in collision first opens its fingers,
-    then backs off up to 20 mm along the approach axis; None when it is still in collision. Returns the palm
-    position after the approach, the pre-grasp DOFs used (4,), the closed joints (7,) and the quality."""
+    """Execute one grasp as the robot does, in pybullet: the hand open at ``spread`` (rad) at the pose (backed
+    off up to 20 mm when in collision; None when still in collision), approach up to 30 mm to contact along +z,
+    close the fingers until contact. Returns the palm position after the approach, the open DOFs used (4,), the
+    closed joints (7,) and the quality."""
     quat = Rotation.from_matrix(rot).as_quat()
-    closing.set_pose(client_id, hand, pos, quat)
-    barrett.apply_dofs(client_id, hand, dofs)
-    free = _free_pregrasp(client_id, hand, obj, rot, pos, quat, dofs)
+    free = _free_pregrasp(client_id, hand, obj, rot, pos, quat, spread)
     if free is None:
         return None
     pos, dofs = free
@@ -233,8 +250,8 @@ def search(
     rng: np.random.Generator,
     params: PlannerParams | None = None,
 ) -> list[GraspCandidate]:
-    """Anneal from the seed, try the best distinct states in pybullet; all candidates, force closure first
-    and then by closeness to the seed."""
+    """Anneal from the seed, try the best distinct states and the demonstrated pose in pybullet; all candidates:
+    near the demonstration first, force closure first, then by closeness to the demonstration."""
     prm = params or PlannerParams()
     space = ApproachSpace(seed_rot, seed_pos, pivot_distance(model, seed_rot, seed_pos, prm.max_pivot_m))
     lim = prm.amplitude_limit
@@ -259,9 +276,9 @@ def search(
         sub = AnnealTrace(pooled.states[sel], pooled.energies[sel], 0)
         picks += [(sub.states[i], float(sub.energies[i])) for i in _select(sub, per_bin, upper - lower)]
 
-    for a1, (dist, roll, a2) in itertools.product(LINE_SPREADS, LINE_POSES):
-        x = np.array([a1, a2, dist, roll, 0.0])
-        picks.append((x, energy(x)))
+    for a1, (back, roll) in itertools.product(LINE_SPREADS, LINE_POSES):
+        x = np.array([a1, 0.0, space.pivot_m + back, roll, 0.0])
+        picks.insert(0, (x, energy(x)))
     client = pb.connect(pb.DIRECT)
     try:
         obj = load_object(client, model)
@@ -269,28 +286,29 @@ def search(
         out: list[GraspCandidate] = []
         for x, e in picks:
             rot, pos = space.pose(x)
-            quat = Rotation.from_matrix(rot).as_quat()
-            best: GraspCandidate | None = None
-            for opening in PRESHAPE_OPENINGS_RAD:
-                dofs = barrett.dofs_from_eigengrasps(float(x[0]), float(x[1]))
-                dofs[1:] = np.maximum(dofs[1:] - opening, 0.0)
-                result = evaluate_pose(client, hand, obj, model, rot, pos, dofs, prm)
-                if result is None:
-                    continue
-                final_pos, pre_dofs, closed, quality = result
-                state = x.copy()
-                state[1] = barrett.eigengrasps_from_dofs(pre_dofs)[1]
-                cost = closeness(rot, final_pos, seed_rot, seed_pos, prm)
-                cand = GraspCandidate(state, final_pos, quat, closed, quality, e, cost)
-                if best is None or _better(cand, best):
-                    best = cand
-                if rank_tier(best.quality) == 0:
-                    break
-            if best is not None:
-                out.append(best)
+            spread = float(barrett.dofs_from_eigengrasps(float(x[0]), 0.0)[0])
+            result = evaluate_pose(client, hand, obj, model, rot, pos, spread, prm)
+            if result is None:
+                continue
+            final_pos, _, closed, quality = result
+            offset = demo_offset(rot, final_pos, space, prm)
+            out.append(
+                GraspCandidate(
+                    x.copy(),
+                    final_pos,
+                    Rotation.from_matrix(rot).as_quat(),
+                    closed,
+                    quality,
+                    e,
+                    closeness(offset, prm),
+                    offset.lateral_m,
+                    offset.angle_rad,
+                    is_near(offset, prm),
+                )
+            )
     finally:
         pb.disconnect(client)
-    out.sort(key=lambda c: (rank_tier(c.quality), c.closeness))
+    out.sort(key=lambda c: (not c.near, rank_tier(c.quality), c.closeness))
     return _distinct(out)
 
 

@@ -1,8 +1,8 @@
 """Shake test: does a grasp hold the part as a free body under gravity and shaking (pybullet, DIRECT)?
 
 The part (the planner's object model, optionally cropped around the contacts) is a dynamic body of 0.3 kg made
-of its convex pieces or primitive. The hand is placed at the grasp's palm pose with its pre-grasp posture, the
-fingers are closed kinematically to contact, then position-controlled 0.3 rad past contact with at most
+of its convex pieces or primitive. The hand is placed at the grasp's palm pose open at the grasp's spread
+(``closing.open_free``), the fingers are closed kinematically to contact, then position-controlled 0.3 rad past contact with at most
 ``squeeze_torque_nm`` (1.5 N m) so they press. The palm is held by a fixed constraint that follows a
 trajectory: settle without gravity, switch gravity on (world -z), then shake sinusoidally along world x, y, z
 and two diagonals (A (1 - cos ωt), A = 20 mm, 2.5 Hz: 4.9 m/s² peak), two cycles each. The grasp holds when
@@ -34,7 +34,7 @@ SHAKE_DIRECTIONS: FloatArray = np.array(
 class ShakeParams:
     """Shake test settings: part mass (kg), amplitude (m), frequency (Hz), cycles per direction, how many of
     ``SHAKE_DIRECTIONS`` (x, y, z, xy, yz) to shake along, squeeze past
-    contact (rad) and its torque (N m), friction, tolerances; ``close`` False keeps the pre-grasp posture;
+    contact (rad) and its torque (N m), friction, tolerances; ``close`` False holds the eigengrasp posture itself;
     ``part_radius_m``: the free body is the object's points within this distance of the contacts' centroid (the
     grasped part: a handle, a cap), None for the whole object; ``spinning_friction_m``: torsional friction of
     the rubber finger pads (pybullet point contacts have none otherwise); ``solver_iterations``: 150, since
@@ -104,7 +104,8 @@ def shake_test(model: ObjectModel, grasp: Grasp, params: ShakeParams | None = No
         quat = np.array(grasp.wrist_orientation)
         dofs = barrett.dofs_from_eigengrasps(*grasp.eigengrasps)
         if prm.close:
-            closed = closing.close_fingers(client, hand, obj, dofs)
+            opened = closing.open_free(client, hand, obj, float(dofs[0]))
+            closed = closing.close_fingers(client, hand, obj, opened)
             if prm.part_radius_m is not None:
                 contacts = closing.contacts_of(client, hand, obj)
                 part = _grasped_part(model, contacts.positions, prm.part_radius_m)
