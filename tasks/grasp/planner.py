@@ -168,8 +168,8 @@ def rank_tier(quality: GraspQuality) -> int:
 @dataclass(frozen=True)
 class DemoOffset:
     """Where a palm pose lies from the demonstration: offset (m) from the demonstrated approach segment (the
-    demonstrated palm moved up to ``approach_max_m`` along its approach, no further than the object), advance (m) along the approach from the
-    demonstrated palm (negative = behind it), angle (rad) between the palm rotations."""
+    demonstrated palm moved up to ``approach_max_m`` along its approach, no further than the object), advance
+    (m) along the approach from the demonstrated palm (negative = behind it), angle (rad) between the palms."""
 
     lateral_m: float
     advance_m: float

@@ -2,12 +2,12 @@
 
 The part (the planner's object model, optionally cropped around the contacts) is a dynamic body of 0.3 kg made
 of its convex pieces or primitive. The hand is placed at the grasp's palm pose open at the grasp's spread
-(``closing.open_free``), the fingers are closed kinematically to contact, then position-controlled 0.3 rad past contact with at most
-``squeeze_torque_nm`` (1.5 N m) so they press. The palm is held by a fixed constraint that follows a
-trajectory: settle without gravity, switch gravity on (world -z), then shake sinusoidally along world x, y, z
-and two diagonals (A (1 - cos ωt), A = 20 mm, 2.5 Hz: 4.9 m/s² peak), two cycles each. The grasp holds when
-the part's pose relative to the palm moves less than ``max_shift_m`` (10 mm) and ``max_turn_rad`` (10°) from
-where it settled.
+(``closing.open_free``), the fingers are closed kinematically to contact, then position-controlled 0.3 rad
+past contact with at most ``squeeze_torque_nm`` (1.5 N m) so they press. The palm is held by a fixed
+constraint that follows a trajectory: settle without gravity, switch gravity on (world -z), then shake
+sinusoidally along world x, y, z and two diagonals (A (1 - cos ωt), A = 20 mm, 2.5 Hz: 4.9 m/s² peak), two
+cycles each. The grasp holds when the part's pose relative to the palm moves less than ``max_shift_m`` (10 mm)
+and ``max_turn_rad`` (10°) from where it settled.
 """
 
 from __future__ import annotations
