@@ -1,9 +1,11 @@
 """Accuracy of the learned chain: our method against the paper's plain method, in the same run.
 
-Synthetic demonstrations (four scenes after the paper's tasks, three noise levels, several seeds) and every
-real Sturm track (``../shared/real/sturm``) are written as recordings with the real ``RecordingWriter``,
-ingested into a temporary store and learned twice: ours (change points + BIC + joint fits) and the paper's
-plain method (one marker, spectral segmentation with the given k, eq. (3) with T0 = 0.05, algebraic circle).
+Synthetic demonstrations (four scenes after the paper's tasks, three noise levels, several seeds), the
+simulated scenes of ``pbd synth`` (microwave, sliding door, lever door, bottle cap; 20 seeds each, scored
+against their ``truth.json`` by ``tasks.synth.score``) and every real Sturm track (``../shared/real/sturm``)
+are written as recordings with the real ``RecordingWriter``, ingested into a temporary store and learned twice:
+ours (change points + BIC + joint rigid-part fits) and the paper's plain method (one marker, spectral
+segmentation with the given k, eq. (3) with T0 = 0.05, algebraic circle).
 
     .venv/bin/python bench/learn_accuracy.py [--quick]
 """
@@ -11,6 +13,7 @@ plain method (one marker, spectral segmentation with the given k, eq. (3) with T
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import tempfile
 import time
@@ -30,6 +33,9 @@ from tasks.learn.params import LearnParams  # noqa: E402
 from tasks.recording.load import load_recording  # noqa: E402
 from tasks.recording.writer import RecordingWriter  # noqa: E402
 from tasks.store import Store  # noqa: E402
+from tasks.synth.paths import truth_path  # noqa: E402
+from tasks.synth.record import synthesize  # noqa: E402
+from tasks.synth.score import ChainScore, score_chain  # noqa: E402
 from tests.learn.synthetic import SCENES, START_NS, TruthPrimitive, make_demo, write_recording  # noqa: E402
 
 STURM = REPO.parent / "shared" / "real" / "sturm" / "mechanisms_iros_2010"
@@ -71,7 +77,7 @@ def _align(got: list[str], want: list[str]) -> list[tuple[int, int]]:
 
 
 def _score(chain: tuple[Primitive, ...], truth: tuple[TruthPrimitive, ...], err: Errors) -> None:
-    kinds = [p.kind for p in chain]
+    kinds: list[str] = [p.kind for p in chain]
     want = [t.kind for t in truth]
     err.chains += 1
     err.chains_right += kinds == want
@@ -161,6 +167,83 @@ def synthetic(store: Store, folder: Path, quick: bool) -> None:
         print(f"  wrong chain (ours): {f}")
 
 
+SYNTH_SCENES = ("microwave", "sliding-door", "door", "bottle")
+
+
+@dataclass
+class SynthErrors:
+    """Chains right and per-primitive errors of one method over ``pbd synth`` recordings."""
+
+    chains_right: int = 0
+    chains: int = 0
+    direction_deg: list[float] = field(default_factory=list)
+    position_mm: list[float] = field(default_factory=list)
+    angle_deg: list[float] = field(default_factory=list)
+    distance_mm: list[float] = field(default_factory=list)
+    boundary_s: list[float] = field(default_factory=list)
+    wrong: list[str] = field(default_factory=list)
+
+    def add(self, name: str, score: ChainScore) -> None:
+        """Count one recording's score."""
+        self.chains += 1
+        self.chains_right += score.kinds_right
+        if not score.kinds_right:
+            self.wrong.append(f"{name}: {list(score.learned)} (truth {list(score.truth)})")
+        for e in score.errors:
+            self.direction_deg.append(e.direction_deg)
+            if e.position_mm is not None:
+                self.position_mm.append(e.position_mm)
+            (self.angle_deg if e.kind == "rotation" else self.distance_mm).append(abs(e.extent_error))
+            self.boundary_s += [abs(v) for v in (e.t_start_s, e.t_end_s) if v is not None]
+
+
+def simulated(store: Store, folder: Path, quick: bool) -> None:
+    """Both methods over ``pbd synth`` recordings of every built-in scene, scored against their truth."""
+    seeds = range(3) if quick else range(20)
+    ours, base = SynthErrors(), SynthErrors()
+    per_scene = {s: (SynthErrors(), SynthErrors()) for s in SYNTH_SCENES}
+    t_start = time.perf_counter()
+    for scene in SYNTH_SCENES:
+        for seed in seeds:
+            path = folder / f"synth-{scene}-{seed}.mcap"
+            synthesize(scene, seed, path)
+            truth = json.loads(truth_path(path).read_text())
+            name = f"{scene} seed {seed}"
+            chain, _, _ = _learn(store, path, LearnParams())
+            k = 2 * len(truth["chain"]) + 1  # rest, motion, rest, ... as the moving part shows it
+            bchain, _, _ = _learn(store, path, LearnParams.paper_baseline(k=k))
+            for who, got in ((ours, chain), (base, bchain)):
+                score = score_chain([p.to_dict() for p in got], truth)
+                who.add(name, score)
+                per_scene[scene][0 if who is ours else 1].add(name, score)
+    n = ours.chains
+    print(f"\npbd synth recordings: {n} ({len(SYNTH_SCENES)} scenes x {len(seeds)} seeds, randomised instances)")
+    print(f"{'figure (median / p95 / worst)':<34} {'ours':>26} {'paper baseline (true k)':>26}")
+    rows = [
+        ("chains right (kinds, order)", f"{ours.chains_right}/{n}", f"{base.chains_right}/{n}"),
+        ("axis direction error, deg", _stats(ours.direction_deg), _stats(base.direction_deg)),
+        ("axis position error, mm", _stats(ours.position_mm), _stats(base.position_mm)),
+        ("rotation angle error, deg", _stats(ours.angle_deg), _stats(base.angle_deg)),
+        ("translation distance error, mm", _stats(ours.distance_mm), _stats(base.distance_mm)),
+        ("segment boundary error, s", _stats(ours.boundary_s), _stats(base.boundary_s)),
+    ]
+    for row, a, b in rows:
+        print(f"{row:<34} {a:>26} {b:>26}")
+    print("By scene: chains right ours / paper; ours worst direction deg, position mm, extent, boundary s")
+    for scene, (o_err, b_err) in per_scene.items():
+        worst = [max(v) if v else float("nan") for v in (o_err.direction_deg, o_err.position_mm)]
+        extent = max(o_err.angle_deg or o_err.distance_mm or [float("nan")])
+        bound = max(o_err.boundary_s or [float("nan")])
+        unit = "deg" if o_err.angle_deg else "mm"
+        print(
+            f"  {scene:<14} {o_err.chains_right:>2}/{o_err.chains} {b_err.chains_right:>2}/{b_err.chains}   "
+            f"{worst[0]:.2f} deg  {worst[1]:.2f} mm  {extent:.2f} {unit}  {bound:.2f} s"
+        )
+    for w in ours.wrong:
+        print(f"  wrong chain (ours): {w}")
+    print(f"  ({time.perf_counter() - t_start:.1f} s with recording)")
+
+
 def _sturm_recording(log: Path, out: Path) -> None:
     pts = np.loadtxt(log)
     stamps = START_NS + np.round(np.arange(len(pts)) * 1e9 / STURM_HZ).astype(np.int64)
@@ -216,13 +299,16 @@ def real(store: Store, folder: Path, quick: bool) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--quick", action="store_true", help="4 synthetic demonstrations and 4 real tracks")
+    parser.add_argument(
+        "--quick", action="store_true", help="4 synthetic demonstrations, 12 pbd synth recordings and 4 real tracks"
+    )
     args = parser.parse_args()
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="pbd-bench-learn-") as tmp:
         folder = Path(tmp)
         store = Store(folder / "store")
         synthetic(store, folder, args.quick)
+        simulated(store, folder, args.quick)
         real(store, folder, args.quick)
     print(f"\ntotal {time.perf_counter() - t0:.1f} s")
 

@@ -28,6 +28,10 @@ MAX_GAP_SAMPLES = 3.0
 intervals apart (occlusion bursts are not interpolated across)."""
 REFERENCE_SAMPLES = 5
 """Grid samples averaged into the reference configuration (the part barely moves at a motion's start)."""
+MIN_TURN_RAD = 0.05
+"""A net turn below this fixes no axis direction worth having (rad)."""
+TURN_SIGMAS = 5.0
+"""A net turn must exceed this many of its noise sigmas (about the worst-determined direction) to fix an axis."""
 
 
 @dataclass(frozen=True)
@@ -124,11 +128,17 @@ class ScrewAxis:
 
 def screw_axis(motion: PartMotion) -> ScrewAxis | None:
     """The screw axis of the part's motion (orientations for the direction, the centroids' motion for the
-    point), or None when it turns too little to fix an axis (under 0.05 rad). The direction's std comes from
-    the Kabsch residual's noise and each sample's turn information about the directions across the axis."""
+    point), or None when its net turn is under ``MIN_TURN_RAD`` or ``TURN_SIGMAS`` noise sigmas. The direction's
+    std comes from the Kabsch residual's noise and each sample's turn information across the axis."""
     turns = np.linalg.norm(motion.rotvecs, axis=1)
     moving = turns > 0.5 * float(turns.max())
-    if float(turns.max()) < 0.05 or moving.sum() < 2:
+    dof = max(3 * len(motion.reference) - 6, 1)
+    sigma2 = float(np.mean(motion.rss_best)) / dof
+    ref = motion.reference
+    info_ref = (ref**2).sum() * np.eye(3) - ref.T @ ref  # Kabsch turn information, m^2 per sigma^2
+    noise_rad = float(np.sqrt(sigma2 / max(float(np.linalg.eigvalsh(info_ref)[0]), 1e-12)))
+    threshold = max(MIN_TURN_RAD, TURN_SIGMAS * noise_rad / np.sqrt(REFERENCE_SAMPLES))
+    if float(np.linalg.norm(net_turn(motion))) < threshold or moving.sum() < 2:
         return None
     scatter = motion.rotvecs[moving].T @ motion.rotvecs[moving]
     d = unit(np.linalg.eigh(scatter)[1][:, 2])
@@ -154,7 +164,5 @@ def screw_axis(motion: PartMotion) -> ScrewAxis | None:
         turn_sq += theta**2
     a = np.concatenate([*rows, d[None, :]])
     sol, *_ = np.linalg.lstsq(a, np.concatenate([*rhs, [float(np.dot(c0, d))]]), rcond=None)
-    dof = max(3 * len(motion.reference) - 6, 1)
-    sigma2 = float(np.mean(motion.rss_best)) / dof
     dir_std = float(np.sqrt(sigma2 * np.trace(tilt_cov))) / max(turn_sq, 1e-12)
     return ScrewAxis(d, sol, float(np.dot(net_turn(motion), d)), dir_std)

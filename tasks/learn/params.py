@@ -18,6 +18,8 @@ class LearnParams:
 
     ``sigma_floor_m``: the smallest noise level the model choice assumes; real mechanisms deviate from ideal
     circles and lines by 1 to 6 mm (Sturm's tracks, measured circle residual rms), more than the sensor noise.
+    ``use_orientations``: a rigid part's orientation (Kabsch over its >= 3 object markers) enters the model
+    choice and the rotation axis (``tasks.fit.rigid``).
     """
 
     segmenter: Segmenter = "changepoint"
