@@ -72,7 +72,10 @@ def submit_chain(tasks: StageTasks, source: Path, settings: ChainSettings, name:
     ingested = tasks.ingest.submit(str(source), root)
     learned = tasks.learn.submit(root, ingested, settings.params, name=name or settings.name, seed=settings.seed)
     stored = tasks.store.submit(root, learned)
-    simulated = tasks.simulate.submit(root, stored, seed=settings.scene_seed)
+    if settings.scene_seed is None:  # the scene instance the recording's meta names (pbd synth), else nominal
+        simulated = tasks.simulate.submit(root, stored, recording=ingested)
+    else:
+        simulated = tasks.simulate.submit(root, stored, seed=settings.scene_seed)
     diffed = tasks.diff.submit(root, stored)
     futures: dict[str, PrefectFuture[Any]] = {
         "ingest": ingested,

@@ -17,9 +17,10 @@ from prefect import task
 from prefect.context import TaskRunContext
 
 from flows.caching import RETRIES, RETRY_DELAY_S, retry_on_transient_io, stage_key
-from tasks.errors import SceneError, StoreError
-from tasks.report.refs import DescriptorRef, SimulationRef
+from tasks.errors import SceneError, SimulationError, StoreError
+from tasks.report.refs import DescriptorRef, RecordingRef, SimulationRef
 from tasks.simulate.api import simulate_descriptor
+from tasks.simulate.instance import instance_from_meta, recording_meta
 from tasks.store import Store, write_bytes_atomic
 
 SIMULATE_MODULES = ("tasks.simulate", "tasks.scenes", "tasks.grasp", "schemas")
@@ -27,11 +28,14 @@ SIMULATE_MODULES = ("tasks.simulate", "tasks.scenes", "tasks.grasp", "schemas")
 
 
 def simulate_cache_key(context: TaskRunContext, parameters: dict[str, Any]) -> str:
-    """Cache key of a simulation: descriptor id, scene, seed, grasp mode, code version."""
+    """Cache key of a simulation: descriptor id, the recording it came from (whose meta may name the scene
+    instance), scene, seed, grasp mode, code version."""
     del context
     descriptor: DescriptorRef = parameters["descriptor"]
+    recording: RecordingRef | None = parameters.get("recording")
+    inputs = {"descriptor": descriptor.id, "recording": recording.recording_id if recording else None}
     params = {k: parameters.get(k) for k in ("scene", "seed", "grasp_mode")}
-    return stage_key("simulate", SIMULATE_MODULES, {"descriptor": descriptor.id}, params)
+    return stage_key("simulate", SIMULATE_MODULES, inputs, params)
 
 
 @task(
@@ -45,20 +49,33 @@ def simulate_cache_key(context: TaskRunContext, parameters: dict[str, Any]) -> s
 def simulate_task(
     store_root: str,
     descriptor: DescriptorRef,
+    *,
     scene: str | None = None,
     seed: int | None = None,
     grasp_mode: str = "constraint",
+    recording: RecordingRef | None = None,
 ) -> SimulationRef:
-    """Execute a stored descriptor on ``scene`` (default: the built-in scene named like its object)."""
-    desc = Store(store_root).load(descriptor.path)
+    """Execute a stored descriptor on ``scene`` with ``seed`` (the randomised instance). Without either: the
+    scene instance the ``recording``'s meta names (a ``pbd synth`` recording: scene and seed), not executed when
+    it names none; with no recording either, the nominal built-in scene named like the descriptor's object. A
+    descriptor that does not fit the scene is a failed simulation whose ``detail`` says why."""
+    store = Store(store_root)
+    desc = store.load(descriptor.path)
+    if scene is None and seed is None and recording is not None:
+        scene, seed = instance_from_meta(recording_meta(store.recording_dir(recording.recording_id)))
+        if scene is None:
+            why = "the recording names no built-in scene instance (its world frame is its own): use pbd simulate"
+            return SimulationRef(desc.id, desc.object.name, False, (), (), skipped=why)
     rng = np.random.default_rng(seed) if seed is not None else None
     try:
         result = simulate_descriptor(desc, scene=scene, rng=rng, grasp_mode=grasp_mode)  # type: ignore[arg-type]
     except SceneError as err:
         return SimulationRef(desc.id, scene or desc.object.name, False, (), (), skipped=str(err))
+    except SimulationError as err:  # the descriptor does not fit the scene or cannot be executed in it: a failure
+        return SimulationRef(desc.id, scene or desc.object.name, False, (), (), detail=str(err))
     prims = result.primitives
     detail = "; ".join(result.notes)
-    trace_path = _write_trace(Store(store_root), desc.id, result)
+    trace_path = _write_trace(store, desc.id, result, seed)
     return SimulationRef(
         descriptor_id=desc.id,
         scene=result.scene,
@@ -71,8 +88,8 @@ def simulate_task(
     )
 
 
-def _write_trace(store: Store, descriptor_id: str, result: Any) -> Path | None:
-    """The driven joints' trace as ``<store>/simulations/<id>-<scene>.npz`` (times_s, values (k, n), targets,
+def _write_trace(store: Store, descriptor_id: str, result: Any, seed: int | None) -> Path | None:
+    """The driven joints' trace as ``<store>/simulations/<id>-<scene>[-s<seed>].npz`` (times_s, values (k, n), targets,
     names, units) for the report; None when the simulation recorded no trace."""
     trace = getattr(result, "trace", None)
     if trace is None or not getattr(trace, "t_s", ()):
@@ -88,7 +105,8 @@ def _write_trace(store: Store, descriptor_id: str, result: Any) -> Path | None:
         names=np.array(names),
         units=np.array([targets.get(n, (0.0, "rad"))[1] for n in names]),
     )
-    path = store.root / "simulations" / f"{descriptor_id[:16]}-{result.scene}.npz"
+    instance = result.scene if seed is None else f"{result.scene}-s{seed}"
+    path = store.root / "simulations" / f"{descriptor_id[:16]}-{instance}.npz"
     if not path.exists():
         with contextlib.suppress(StoreError):  # written by a concurrent run of the same simulation
             write_bytes_atomic(path, buf.getvalue())

@@ -18,17 +18,20 @@ from tasks.ingest import task as ingest_module
 from tasks.learn import task as learn_module
 from tasks.simulate import task as simulate_module
 from tasks.store import Store
+from tasks.synth.record import synthesize
 from tests.flows.recordings import write_door_recording
 from tests.flows.test_stage_tasks import CallCounter, count_calls
 
 
 @pytest.fixture
 def archive(tmp_path: Path) -> Path:
-    """Two door demonstrations (MCAP and rosbag2) without object models, so learning is quick."""
+    """Two door demonstrations (MCAP and rosbag2) without object models or scene instance (learning is quick, no
+    simulation), and a simulated sliding-door demonstration (``pbd synth``: object model, grasp, simulation)."""
     folder = tmp_path / "archive"
     folder.mkdir()
     write_door_recording(folder / "door-a.mcap", "mcap", 1.2, seed=1, with_model=False)
     write_door_recording(folder / "nested" / "door-b", "rosbag2", 0.9, seed=2, with_model=False)
+    synthesize("sliding-door", 3, folder / "slide.mcap")
     return folder
 
 
@@ -47,22 +50,24 @@ def test_unchanged_archive_does_no_stage_work_and_a_parameter_reruns_learning_on
 ) -> None:
     store = tmp_path / "store"
     first = reprocess_archive(str(archive), store=str(store), workers=2)
-    assert dict(calls) == {"ingest_recording": 2, "learn_descriptor": 2, "simulate_descriptor": 2}
-    assert first["counts"] == {"new": 2, "changed": 0, "unchanged": 0, "failed": 0}
-    assert [e["descriptor"] for e in first["entries"]] == ["door-a@v1", "nested-door-b@v1"]
+    # the doors' recordings name no scene instance: not simulated; the synthesised sliding door is
+    assert dict(calls) == {"ingest_recording": 3, "learn_descriptor": 3, "simulate_descriptor": 1}
+    assert first["counts"] == {"new": 3, "changed": 0, "unchanged": 0, "failed": 0}
+    assert [e["descriptor"] for e in first["entries"]] == ["door-a@v1", "nested-door-b@v1", "slide@v1"]
+    assert [e["simulation_success"] for e in first["entries"]] == [None, None, True]
     assert first["report"] is not None and Path(first["report"]).is_file()
 
     again = reprocess_archive(str(archive), store=str(store), workers=2)
-    assert dict(calls) == {"ingest_recording": 2, "learn_descriptor": 2, "simulate_descriptor": 2}  # all cached
-    assert again["counts"] == {"new": 0, "changed": 0, "unchanged": 2, "failed": 0}
+    assert dict(calls) == {"ingest_recording": 3, "learn_descriptor": 3, "simulate_descriptor": 1}  # all cached
+    assert again["counts"] == {"new": 0, "changed": 0, "unchanged": 3, "failed": 0}
     assert Path(again["report"] or "").parent != Path(first["report"]).parent  # a report per run
 
     changed = reprocess_archive(str(archive), store=str(store), params={"min_rotation_rad": 1.0}, workers=1)
     # ingest cached, learning re-ran, only the descriptor that changed is simulated again
-    assert dict(calls) == {"ingest_recording": 2, "learn_descriptor": 4, "simulate_descriptor": 3}
+    assert dict(calls) == {"ingest_recording": 3, "learn_descriptor": 6, "simulate_descriptor": 1}
     statuses = {Path(e["source"]).name: e["status"] for e in changed["entries"]}
     # the 0.9 rad door is now below the smallest rotation kept: its chain changes, the 1.2 rad one does not
-    assert statuses == {"door-a.mcap": "unchanged", "door-b": "changed"}
+    assert statuses == {"door-a.mcap": "unchanged", "door-b": "changed", "slide.mcap": "unchanged"}
     diff = next(e["diff"] for e in changed["entries"] if e["status"] == "changed")
     assert any(line.startswith("  removed primitive 0: rotation") for line in diff)
     assert [v.version for v in Store(store).versions("nested-door-b")] == [1, 2]
@@ -97,7 +102,7 @@ def test_an_unknown_parameter_fails_the_recording_not_the_run(
     prefect_harness: None, archive: Path, tmp_path: Path
 ) -> None:
     summary = reprocess_archive(str(archive), store=str(tmp_path / "store"), params={"no_such": 1}, report=False)
-    assert summary["counts"]["failed"] == 2
+    assert summary["counts"]["failed"] == 3
     assert all("unknown learning parameter(s) no_such" in (e["error"] or "") for e in summary["entries"])
 
 
@@ -111,6 +116,6 @@ def test_cache_survives_a_new_process_and_prefect_home(prefect_harness: None, ar
     out = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=240, check=False)
     assert out.returncode == 0, out.stderr[-2000:]
     summary = json.loads(out.stdout)
-    assert summary["counts"]["unchanged"] == 2
+    assert summary["counts"]["unchanged"] == 3, summary
     after = {p.name: p.stat().st_mtime_ns for p in results_dir(store).iterdir()}
     assert after == before  # no stage ran: no result record was written or rewritten

@@ -1,0 +1,33 @@
+"""Which built-in scene instance a descriptor belongs to: the scene and seed a synthesised recording names in its
+meta (``/demo/meta``: ``{"scene": ..., "seed": ...}``, as ``pbd synth`` writes it)."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from tasks.errors import StoreError
+
+
+def instance_from_meta(meta: Mapping[str, Any]) -> tuple[str | None, int | None]:
+    """``(scene, seed)`` named by a recording's meta; None where it names none (a seed that is not an integer
+    counts as none, so the nominal instance is used)."""
+    scene = meta.get("scene")
+    seed = meta.get("seed")
+    return (
+        scene if isinstance(scene, str) and scene else None,
+        seed if isinstance(seed, int) and not isinstance(seed, bool) else None,
+    )
+
+
+def recording_meta(recording_dir: Path) -> dict[str, Any]:
+    """The meta of an ingested recording (``recording.json``'s ``meta``; empty when it has none)."""
+    path = recording_dir / "recording.json"
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, json.JSONDecodeError) as err:
+        raise StoreError(path, f"cannot read the ingested recording's metadata: {err}") from err
+    meta = data.get("meta") if isinstance(data, dict) else None
+    return dict(meta) if isinstance(meta, dict) else {}
