@@ -37,6 +37,8 @@ SHAKE_CHECKS = 5
 """Force-closure candidates (in rank order) given the quick shake test before settling for the first."""
 ROUNDS = 2
 """Annealing rounds tried before giving up on force closure (a second one only when the first found none)."""
+SEED_WINDOW_S = 1.0
+"""The seed is the stillest wrist pose within this long before the first primitive's start (``stillest_time_ns``)."""
 
 
 @dataclass(frozen=True)
@@ -91,6 +93,23 @@ def wrist_pose_at(track: PoseTrack, stamp_ns: int) -> tuple[Vector3, FloatArray]
         return positions[i], quats[i] / np.linalg.norm(quats[i])
     pos = np.array([np.interp(t, times, positions[:, k]) for k in range(3)])
     return pos, Slerp(times, Rotation.from_quat(quats))(t).as_quat()
+
+
+def stillest_time_ns(track: PoseTrack, stamp_ns: int, window_s: float = SEED_WINDOW_S) -> int:
+    """The stamp (ns) in ``[stamp_ns - window_s, stamp_ns]`` where the wrist moves least (over ±0.1 s: 10 mm or
+    2° count alike): the moment the demonstrator's hand rested on the part while closing, the grasp. A
+    primitive's detected start can come late, after the hand began turning the part (a cap)."""
+    half_ns = 100_000_000
+    best, best_cost = stamp_ns, math.inf
+    for k in range(round(window_s / 0.05), -1, -1):
+        t = stamp_ns - k * 50_000_000
+        p0, q0 = wrist_pose_at(track, t - half_ns)
+        p1, q1 = wrist_pose_at(track, t + half_ns)
+        turn = float((Rotation.from_quat(q0).inv() * Rotation.from_quat(q1)).magnitude())
+        cost = float(np.linalg.norm(p1 - p0)) / 0.01 + turn / math.radians(2.0)
+        if cost <= best_cost:
+            best, best_cost = t, cost
+    return best
 
 
 def _check_seed(seed_position: object, seed_quat_xyzw: object) -> tuple[Vector3, FloatArray]:
@@ -197,8 +216,9 @@ def plan_grasp_for_recording(
     offset: PalmOffset = GRASPIT_TRACKER_OFFSET,
     params: PlannerParams | None = None,
 ) -> Grasp | None:
-    """Plan the grasp of a recording: None without an object model. The seed is the wrist tracker pose at
-    ``start_ns + t_seed_s`` (the track's first sample when None) through ``offset``; without a wrist track the
+    """Plan the grasp of a recording: None without an object model. The seed is the wrist tracker pose at the
+    stillest moment of the second before ``start_ns + t_seed_s`` (the track's first sample when None) through
+    ``offset``; without a wrist track the
     seed looks down at the object's top from 10 cm above it. Only the part near the seed is grasped."""
     if object_points is None:
         return None
@@ -208,7 +228,7 @@ def plan_grasp_for_recording(
             msg = f"seed time is not finite: {t_seed_s}"
             raise GraspError(msg)
         if t_seed_s is not None:
-            stamp = start_ns + round(t_seed_s * 1e9)
+            stamp = stillest_time_ns(wrist, start_ns + round(t_seed_s * 1e9))
         else:
             stamp = int(wrist.stamps_ns[0]) if len(wrist.stamps_ns) else start_ns
         sensor_pos, sensor_quat = wrist_pose_at(wrist, stamp)

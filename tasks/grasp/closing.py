@@ -170,13 +170,13 @@ def contacts_of(client_id: int, hand: int, obj: int, within: float = 0.002, merg
     return Contacts(np.array(positions), np.array(normals), np.array(links, dtype=np.int64))
 
 
-def open_free(client_id: int, hand: int, obj: int, spread_rad: float) -> FloatArray:
+def open_free(client_id: int, hand: int, obj: int, spread_rad: float, min_finger_rad: float = 0.0) -> FloatArray:
     """(4,) DOFs of the open hand at ``spread_rad`` (fingers at ``barrett.OPEN_FINGER_RAD``), opened further in
-    0.1 rad steps (down to flat) while it touches the object at its current pose; applied to the hand."""
+    0.1 rad steps (down to ``min_finger_rad``) while it touches the object at its current pose; applied."""
     finger = barrett.OPEN_FINGER_RAD
     while True:
         dofs = barrett.open_dofs(spread_rad, finger)
         barrett.apply_dofs(client_id, hand, dofs)
-        if finger <= 0.0 or min_distance(client_id, hand, obj) >= 0.0:
+        if finger <= min_finger_rad or min_distance(client_id, hand, obj) >= 0.0:
             return dofs
-        finger = max(0.0, finger - 0.1)
+        finger = max(min_finger_rad, finger - 0.1)
