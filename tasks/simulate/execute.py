@@ -29,7 +29,7 @@ from tasks.arrays import FloatArray
 from tasks.errors import SimulationError
 from tasks.grasp import barrett
 from tasks.simulate import robot as rb
-from tasks.simulate.ik import solve_ik
+from tasks.simulate.control import command_for_twist, line_twist, pose_error, screw_twist
 from tasks.simulate.matching import JointAxis, JointMatch, match_chain
 from tasks.simulate.placement import KeyPose, place_base
 from tasks.simulate.render import save_frame
@@ -44,6 +44,8 @@ from tasks.simulate.result import (
     StopReason,
 )
 from tasks.simulate.waypoints import (
+    ARC_STEP_RAD,
+    LINE_STEP_M,
     Waypoints,
     approach_axis,
     arc_waypoints,
@@ -57,10 +59,17 @@ SOLVER_ITERATIONS = 50
 """Constraint solver iterations per step (pybullet's default; 20 let the cap slip under the palm constraint)."""
 STEPS_PER_WAYPOINT = 6
 """Physics steps per waypoint: 1° or 5 mm per 25 ms, i.e. 0.7 rad/s or 0.2 m/s along the path."""
-TRACK_IK_ITERATIONS = 20
-"""IK iterations per waypoint while tracking (the seed is the last solution, a degree or 5 mm away)."""
+MAX_PATH_FACTOR = 1.6
+"""A primitive gets at most 1.6x the control ticks of its planned waypoints (a part lagging a compliant hand)."""
+SETTLED_SPEED = 0.02
+"""After a primitive, the arm holds until the driven joint is slower than this (rad/s or m/s) ..."""
 PREGRASP_BACK_M = 0.10
 """Pre-grasp palm pose: 10 cm back along the approach direction."""
+APPROACH_SETTLE_TICKS = 20
+"""At most this many extra control ticks to bring the palm onto the grasp pose ..."""
+APPROACH_TOL_M = 0.001
+APPROACH_TOL_RAD = math.radians(0.5)
+"""... within 1 mm and 0.5°."""
 CLOSE_EXTRA_RAD = 0.5
 """The fingers are driven this far past the grasp's DOFs, so they squeeze when they stop on the object."""
 OPEN_BEYOND_STRAIGHT_RAD = 0.3
@@ -68,8 +77,8 @@ OPEN_BEYOND_STRAIGHT_RAD = 0.3
 CLOSE_MAX_S = 1.0
 HOLD_S = 0.5
 """Simulated seconds held still after the chain before judging stillness."""
-SETTLE_MAX_S = 1.0
-"""At most this long after the last waypoint for the joint to catch up."""
+SETTLE_MAX_S = 0.5
+"""... or at most this long."""
 STALL_WINDOW = 30
 """Waypoints over which progress is judged (0.75 s) ..."""
 STALL_MIN_FRACTION = 0.02
@@ -157,7 +166,7 @@ def key_poses(
         KeyPose(p - PREGRASP_BACK_M * approach_axis(q), q, dict(state)),
         KeyPose(p, q, dict(state)),
     ]
-    for prim, match in zip(desc.chain, matches, strict=True):
+    for index, (prim, match) in enumerate(zip(desc.chain, matches, strict=True)):
         wps = primitive_waypoints(prim, p, q)
         joint = joints[match.joint].index
         start = state[joint]
@@ -169,7 +178,7 @@ def key_poses(
                 axis_dir = np.asarray(prim.dir, dtype=np.float64) / np.linalg.norm(prim.dir)
                 rel = wps.positions[k] - np.asarray(prim.pos, dtype=np.float64)
                 foot = np.asarray(prim.pos, dtype=np.float64) + (rel @ axis_dir) * axis_dir
-            keys.append(KeyPose(wps.positions[k], wps.quats[k], dict(state), foot))
+            keys.append(KeyPose(wps.positions[k], wps.quats[k], dict(state), foot, index, float(wps.progress[k])))
         p, q = wps.positions[-1], wps.quats[-1]
     return keys
 
@@ -256,9 +265,23 @@ class _Run:
 
     # --- motion --------------------------------------------------------------------------------------------
     def move_to(self, position: FloatArray, quat: FloatArray) -> None:
-        assert self.robot is not None and self.planner is not None
-        sol = solve_ik(self.planner, position, quat, self.q, rounds=2, iterations=TRACK_IK_ITERATIONS)
-        self.q = sol.q
+        """One control tick towards a fixed palm pose (resolved rate from the measured arm state)."""
+        assert self.robot is not None
+        p, q = rb.palm_pose(self.robot)
+        self.q = command_for_twist(self.robot, pose_error(p, q, position, quat))
+        rb.drive_arm(self.robot, self.q)
+
+    def hold(self) -> None:
+        """Hold the arm where it measurably is."""
+        assert self.robot is not None
+        self.q = rb.arm_angles(self.robot)
+        rb.drive_arm(self.robot, self.q)
+
+    def move_by(self, twist: FloatArray, posture: FloatArray | None = None) -> None:
+        """One control tick moving the palm by ``twist`` (world, m and rad) from where it measurably is, the arm
+        drifting towards ``posture`` (7,) radians in its null space."""
+        assert self.robot is not None
+        self.q = command_for_twist(self.robot, twist, posture)
         rb.drive_arm(self.robot, self.q)
 
 
@@ -323,11 +346,46 @@ def _link_index(run: _Run, name: str) -> int:
     raise SimulationError(msg)
 
 
-def _execute_primitive(run: _Run, index: int, prim: Primitive, match: JointMatch, joint: _Joint) -> PrimitiveResult:
+def primitive_twist(prim: Primitive, position: FloatArray, step: float) -> FloatArray:
+    """(6,) palm twist (world, m and rad) advancing primitive ``prim`` by ``step`` (rad or m) from the palm
+    ``position``: a turn about the primitive's axis, or a shift along its direction."""
+    if prim.kind == "rotation":
+        if prim.pos is None:
+            msg = "rotation primitive without an axis point"
+            raise SimulationError(msg)
+        return screw_twist(position, prim.pos, prim.dir, step)
+    return line_twist(prim.dir, step)
+
+
+def posture_path(keys: Sequence[KeyPose], q_path: FloatArray, index: int) -> tuple[FloatArray, FloatArray]:
+    """The base placement's verified arm angles along primitive ``index``: progress (k,) rad or m from 0, and
+    arm angles (k, 7) radians (the first row: the key pose just before the primitive starts)."""
+    rows = [i for i, k in enumerate(keys) if k.primitive == index]
+    if not rows:
+        return np.zeros(1), q_path[-1:].copy()
+    first = rows[0] - 1
+    progress = np.array([0.0, *(keys[i].progress for i in rows)])
+    return progress, q_path[[first, *rows]]
+
+
+def posture_at(path: tuple[FloatArray, FloatArray], progress: float) -> FloatArray:
+    """(7,) arm angles interpolated along ``posture_path`` at ``progress`` (clamped to its ends)."""
+    xs, qs = path
+    return np.array([np.interp(progress, xs, qs[:, j]) for j in range(qs.shape[1])])
+
+
+def _execute_primitive(
+    run: _Run,
+    index: int,
+    prim: Primitive,
+    match: JointMatch,
+    joint: _Joint,
+    path: tuple[FloatArray, FloatArray],
+) -> PrimitiveResult:
     assert run.robot is not None
     start_steps = run.steps
-    p, q = rb.palm_pose(run.robot)
-    wps = primitive_waypoints(prim, p, q)
+    step = ARC_STEP_RAD if prim.kind == "rotation" else LINE_STEP_M
+    planned = max(1, math.ceil(prim.extent / step))
     q_start, _ = run.joint_value(joint.index)
     checks0, hits0 = run.contact_checks, run.contact_hits
     history: list[float] = []
@@ -336,8 +394,11 @@ def _execute_primitive(run: _Run, index: int, prim: Primitive, match: JointMatch
     def achieved() -> float:
         return match.sign * (run.joint_value(joint.index)[0] - q_start)
 
-    for i in range(1, len(wps)):
-        run.move_to(wps.positions[i], wps.quats[i])
+    for _ in range(int(MAX_PATH_FACTOR * planned) + STALL_WINDOW):
+        p, _q = rb.palm_pose(run.robot)
+        remaining = prim.extent - achieved()
+        ahead = min(prim.extent, achieved() + step)
+        run.move_by(primitive_twist(prim, p, min(step, max(remaining, 0.25 * step))), posture_at(path, ahead))
         run.step(STEPS_PER_WAYPOINT)
         run.check_contact()
         a = achieved()
@@ -348,16 +409,13 @@ def _execute_primitive(run: _Run, index: int, prim: Primitive, match: JointMatch
         if len(history) > STALL_WINDOW and history[-1] - history[-1 - STALL_WINDOW] < STALL_MIN_FRACTION * prim.extent:
             stopped = "stalled"
             break
-    if stopped == "end of path":
-        for _ in range(int(SETTLE_MAX_S / (STEPS_PER_WAYPOINT * TIME_STEP_S))):
-            run.step(STEPS_PER_WAYPOINT)
-            run.check_contact()
-            if achieved() >= prim.extent:
-                stopped = "extent reached"
-                break
-            _, vel = run.joint_value(joint.index)
-            if abs(vel) < 0.02:
-                break
+    run.hold()
+    for _ in range(int(SETTLE_MAX_S / (STEPS_PER_WAYPOINT * TIME_STEP_S))):
+        run.step(STEPS_PER_WAYPOINT)
+        run.check_contact()
+        _, vel = run.joint_value(joint.index)
+        if abs(vel) < SETTLED_SPEED:
+            break
     run.frame(f"primitive-{index}")
     checks = run.contact_checks - checks0
     hits = run.contact_hits - hits0
@@ -446,7 +504,14 @@ def _execute(run: _Run, desc: Descriptor, grasp_mode: GraspMode, wall0: float) -
     for i in range(1, len(approach)):
         run.move_to(approach.positions[i], approach.quats[i])
         run.step(STEPS_PER_WAYPOINT)
-    run.step(int(0.1 / TIME_STEP_S))
+    for _ in range(APPROACH_SETTLE_TICKS):
+        p_now, q_now = rb.palm_pose(run.robot)
+        err = pose_error(p_now, q_now, keys[1].position, keys[1].quat)
+        if np.linalg.norm(err[:3]) < APPROACH_TOL_M and np.linalg.norm(err[3:]) < APPROACH_TOL_RAD:
+            break
+        run.move_to(keys[1].position, keys[1].quat)
+        run.step(STEPS_PER_WAYPOINT)
+    run.step(int(0.05 / TIME_STEP_S))
 
     # Close by the eigengrasp amplitudes until the fingers stop on the object.
     squeeze = target_dofs.copy()
@@ -479,7 +544,8 @@ def _execute(run: _Run, desc: Descriptor, grasp_mode: GraspMode, wall0: float) -
 
     results: list[PrimitiveResult] = []
     for i, (prim, match) in enumerate(zip(desc.chain, matches, strict=True)):
-        results.append(_execute_primitive(run, i, prim, match, by_name[match.joint]))
+        path = posture_path(keys, placement.q_path, i)
+        results.append(_execute_primitive(run, i, prim, match, by_name[match.joint], path))
 
     # Hold still, then judge.
     run.step(int(HOLD_S / TIME_STEP_S))

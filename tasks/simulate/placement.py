@@ -19,7 +19,7 @@ import numpy as np
 from tasks.arrays import FloatArray
 from tasks.errors import SimulationError
 from tasks.simulate.ik import solve_ik
-from tasks.simulate.robot import ARM_JOINTS, ARM_REST, Robot
+from tasks.simulate.robot import ARM_JOINTS, ARM_LOWER, ARM_REST, ARM_UPPER, Robot
 from tasks.simulate.waypoints import angle_between_quats, approach_axis, matrix_from_axis_angle, quat_from_matrix
 
 RADII_M: tuple[float, ...] = (0.60, 0.50, 0.72, 0.40, 0.85)
@@ -34,6 +34,9 @@ MAX_REACH_M = 0.82 + 0.205
 """Shoulder to wrist (0.42 + 0.40 m) plus wrist to palm (0.126 m flange + 0.08 m palm): no key farther than this."""
 PART_CLEARANCE_M = 0.15
 """The base must stay this far (horizontally) from the region a rotating part sweeps (axis foot to palm)."""
+KEY_LIMIT_MARGIN_RAD = 0.05
+"""Every arm joint must stay this far inside its limits at every key pose: the executor's Cartesian control
+keeps a margin too, and a path that only IK's clipping at a limit reaches cannot be followed."""
 PENETRATION_TOL_M = 0.005
 WIDE_TURN_RAD = 1.5
 """A chain turning the palm by more than this (radians) also tries wrist-end seeds."""
@@ -52,6 +55,10 @@ class KeyPose:
     scene_joints: dict[int, float]
     axis_foot: FloatArray | None = None
     """For a rotation: the point of the rotation axis nearest the palm (the part spans axis_foot..palm)."""
+    primitive: int = -1
+    """The chain primitive this pose lies on (-1: pre-grasp and grasp) ..."""
+    progress: float = 0.0
+    """... and that primitive's motion there (rad or m)."""
 
 
 @dataclass(frozen=True)
@@ -135,7 +142,7 @@ def reach_keys(
     path = []
     for i, key in enumerate(keys):
         sol = solve_ik(robot, key.position, key.quat, q, rounds=3, iterations=100 if i == 0 else 40)
-        if not sol.ok:
+        if not sol.ok or np.any(np.minimum(sol.q - ARM_LOWER, ARM_UPPER - sol.q) < KEY_LIMIT_MARGIN_RAD):
             return None
         for joint, value in key.scene_joints.items():
             pb.resetJointState(scene_body, joint, value, 0.0, physicsClientId=robot.client)

@@ -1,0 +1,132 @@
+"""Resolved-rate Cartesian control of the palm from the measured arm state (differential IK, damped least squares).
+
+Each control tick reads the arm's joint angles (the robot's encoders), takes the palm Jacobian there and turns a
+small palm twist (linear metres, angular radians, world frame) into joint increments. The joint targets given to
+the force-limited position motors are the *measured* angles plus that increment, never an accumulated plan: the
+arm leads the hand by at most one step, so when a held part moves along a slightly different path than the one
+commanded (a learned axis a few millimetres or degrees off), the part's constraint wins and the next step starts
+from where the hand really is. The interaction force stays that of a one-step error instead of growing with the
+distance between the planned and the true path (an admittance-like compliance).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import numpy.typing as npt
+
+from tasks.arrays import FloatArray
+from tasks.simulate import robot as rb
+from tasks.simulate.waypoints import matrix_from_quat
+
+DAMPING = 0.02
+"""Damping of the least-squares inverse (metres / radians): keeps joint steps bounded near singularities."""
+LIMIT_MARGIN_RAD = 0.02
+"""Joint targets stay this far inside the iiwa's limits."""
+POSTURE_GAIN = 0.1
+"""Fraction of the way to the preferred posture (the base placement's verified joint path) per control tick."""
+ANGULAR_WEIGHT_M = 0.2
+"""Radians count as this many metres when a rotation and a translation are traded off (palm-sized lever)."""
+
+
+def measured_joints(robot: rb.Robot) -> FloatArray:
+    """(15,) positions of every movable joint (arm then hand), radians: what pybullet's Jacobian wants."""
+    import pybullet as pb  # noqa: PLC0415
+
+    states = pb.getJointStates(robot.body, list(rb.MOVABLE_JOINTS), physicsClientId=robot.client)
+    return np.array([s[0] for s in states], dtype=np.float64)
+
+
+def palm_jacobian(robot: rb.Robot, joints: FloatArray) -> FloatArray:
+    """(6, 7) Jacobian of the palm frame's origin (rows: linear m/rad, angular rad/rad; world frame) over the
+    arm's seven joints, at the (15,) movable joint positions ``joints``."""
+    import pybullet as pb  # noqa: PLC0415
+
+    state = pb.getLinkState(robot.body, rb.PALM_LINK, physicsClientId=robot.client)
+    # pybullet's local position is about the link's centre of mass: the link frame's origin seen from there.
+    origin_in_com, _ = pb.invertTransform(state[2], state[3])
+    zeros = [0.0] * len(joints)
+    lin, ang = pb.calculateJacobian(
+        robot.body,
+        rb.PALM_LINK,
+        list(origin_in_com),
+        [float(v) for v in joints],
+        zeros,
+        zeros,
+        physicsClientId=robot.client,
+    )
+    n = len(rb.ARM_JOINTS)
+    base = matrix_from_quat(robot.base_quat)  # pybullet gives a fixed-base Jacobian in the base frame
+    return np.vstack([base @ np.asarray(lin, dtype=np.float64)[:, :n], base @ np.asarray(ang, dtype=np.float64)[:, :n]])
+
+
+def joint_step(
+    jacobian: FloatArray, twist: FloatArray, posture_pull: FloatArray | None = None, damping: float = DAMPING
+) -> FloatArray:
+    """(7,) joint increments (radians) realising the (6,) palm ``twist`` (metres, radians; world frame) in the
+    damped least-squares sense, dq = J⁺ twist with J⁺ = J^T (J J^T + λ² I)^-1 (rotations weighted by
+    ``ANGULAR_WEIGHT_M``), plus ``posture_pull`` (7,) radians projected on the null space (I - J⁺ J): a
+    redundant arm drifts towards a preferred posture without moving the palm."""
+    w = np.array([1.0, 1.0, 1.0, ANGULAR_WEIGHT_M, ANGULAR_WEIGHT_M, ANGULAR_WEIGHT_M])
+    jw = jacobian * w[:, None]
+    tw = np.asarray(twist, dtype=np.float64) * w
+    pinv = jw.T @ np.linalg.inv(jw @ jw.T + (damping**2) * np.eye(6))
+    out: FloatArray = pinv @ tw
+    if posture_pull is not None:
+        out = out + (np.eye(jacobian.shape[1]) - pinv @ jw) @ np.asarray(posture_pull, dtype=np.float64)
+    return out
+
+
+def rotation_vector(rot: FloatArray) -> FloatArray:
+    """(3,) axis times angle (radians, 0..π) of a (3, 3) rotation matrix."""
+    cos = max(-1.0, min(1.0, (float(np.trace(rot)) - 1.0) / 2.0))
+    angle = math.acos(cos)
+    vee = np.array([rot[2, 1] - rot[1, 2], rot[0, 2] - rot[2, 0], rot[1, 0] - rot[0, 1]])
+    if angle < 1e-9:
+        return 0.5 * vee
+    if math.pi - angle < 1e-6:  # half turn: axis from the symmetric part
+        sym = (rot + np.eye(3)) / 2.0
+        axis = sym[:, int(np.argmax(np.diag(sym)))]
+        return angle * axis / np.linalg.norm(axis)
+    out: FloatArray = angle / (2.0 * math.sin(angle)) * vee
+    return out
+
+
+def pose_error(
+    position: FloatArray, quat_xyzw: FloatArray, target_position: npt.ArrayLike, target_quat_xyzw: npt.ArrayLike
+) -> FloatArray:
+    """(6,) world twist taking the palm pose (``position``, ``quat_xyzw``) to the target: [dp (m), rotation
+    vector (rad)]."""
+    dp = np.asarray(target_position, dtype=np.float64) - position
+    drot = matrix_from_quat(target_quat_xyzw) @ matrix_from_quat(quat_xyzw).T
+    return np.concatenate([dp, rotation_vector(drot)])
+
+
+def screw_twist(position: FloatArray, axis_point: npt.ArrayLike, axis_dir: npt.ArrayLike, angle_rad: float) -> FloatArray:
+    """(6,) world twist of a palm at ``position`` turned rigidly by ``angle_rad`` about the axis through
+    ``axis_point`` along the unit ``axis_dir`` (first order: v = ω × (p - c))."""
+    k = np.asarray(axis_dir, dtype=np.float64)
+    k = k / np.linalg.norm(k)
+    omega = angle_rad * k
+    v = np.cross(omega, position - np.asarray(axis_point, dtype=np.float64))
+    return np.concatenate([v, omega])
+
+
+def line_twist(direction: npt.ArrayLike, distance_m: float) -> FloatArray:
+    """(6,) world twist shifting the palm by ``distance_m`` along the unit ``direction``, orientation kept."""
+    d = np.asarray(direction, dtype=np.float64)
+    return np.concatenate([distance_m * d / np.linalg.norm(d), np.zeros(3)])
+
+
+def command_for_twist(
+    robot: rb.Robot, twist: FloatArray, posture: FloatArray | None = None, posture_gain: float = POSTURE_GAIN
+) -> FloatArray:
+    """(7,) arm joint targets: the measured angles plus the increment realising ``twist`` (clipped to the limits);
+    with ``posture`` (7,) radians, the null space pulls the arm ``posture_gain`` of the way towards it per tick."""
+    joints = measured_joints(robot)
+    q = joints[: len(rb.ARM_JOINTS)]
+    pull = None if posture is None else posture_gain * (np.asarray(posture, dtype=np.float64) - q)
+    dq = joint_step(palm_jacobian(robot, joints), twist, pull)
+    out: FloatArray = np.clip(q + dq, rb.ARM_LOWER + LIMIT_MARGIN_RAD, rb.ARM_UPPER - LIMIT_MARGIN_RAD)
+    return out
