@@ -34,6 +34,10 @@ MAX_REACH_M = 0.82 + 0.205
 """Shoulder to wrist (0.42 + 0.40 m) plus wrist to palm (0.126 m flange + 0.08 m palm): no key farther than this."""
 PART_CLEARANCE_M = 0.15
 """The base must stay this far (horizontally) from the region a rotating part sweeps (axis foot to palm)."""
+BASE_LINKS: tuple[int, ...] = (-1, 0, 1, 2, 3)
+"""The pedestal and the arm links up to the elbow: they have no business touching the scene ..."""
+BASE_CLEARANCE_M = 0.02
+"""... so they keep 2 cm from it at every key pose (link 1 resting on a cart jammed the shoulder's turn)."""
 KEY_LIMIT_MARGIN_RAD = 0.05
 """Every arm joint must stay this far inside its limits at every key pose: the executor's Cartesian control
 keeps a margin too, and a path that only IK's clipping at a limit reaches cannot be followed."""
@@ -111,8 +115,11 @@ def _penetrates(robot: Robot, scene_body: int) -> bool:
     import pybullet as pb  # noqa: PLC0415
 
     for link in (-1, *ARM_JOINTS):
-        pts = pb.getClosestPoints(robot.body, scene_body, 0.0, linkIndexA=link, physicsClientId=robot.client)
-        if any(p[8] < -PENETRATION_TOL_M for p in pts):
+        near_base = link in BASE_LINKS
+        within = BASE_CLEARANCE_M if near_base else 0.0
+        limit = BASE_CLEARANCE_M if near_base else -PENETRATION_TOL_M
+        pts = pb.getClosestPoints(robot.body, scene_body, within, linkIndexA=link, physicsClientId=robot.client)
+        if any(p[8] < limit for p in pts):
             return True
     return False
 
