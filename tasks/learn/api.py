@@ -90,8 +90,8 @@ def learn_chain(rec: RecordingData, params: LearnParams, rng: np.random.Generato
         raise FitError(msg, None, (spans[0][0], spans[-1][1]))
     if params.classifier == "bic":
         fits = merge_adjacent(prep, fits, params)
+        fits = refine_boundaries(prep, fits)  # first: the rests then hold no slow start or stop of the motion
         fits = refine_extents(prep, fits)
-        fits = refine_boundaries(prep, fits)
         fits = drop_small(fits, params.min_motion_m)
     chain = tuple(_primitive(f) for f in fits if f.kind in ("rotation", "translation"))
     warnings = list(prep.warnings)
