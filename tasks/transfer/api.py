@@ -17,7 +17,7 @@ from schemas.descriptor import Descriptor, Grasp, ObjectRef
 from tasks.arrays import Points
 from tasks.code_version import code_version
 from tasks.errors import GraspError, TransferError
-from tasks.transfer.carry import axis_spread, carry_chain, carry_grasp, focus_points
+from tasks.transfer.carry import axis_spread, carry_chain, carry_grasp, focus_points, grip_points
 from tasks.transfer.registration import Registration, RegistrationParams, check_model, register_models
 from tasks.transfer.similarity import Similarity
 
@@ -87,7 +87,10 @@ def transfer_descriptor(
     source = check_model(source_model, "source model")
     target = check_model(target_model, "target model")
     focus = focus_points(desc, source)
-    reg = register_models(source, target, focus=focus if len(focus) else None, params=params, init=init, rng=rng)
+    grip = grip_points(desc, source)
+    reg = register_models(
+        source, target, focus=focus if len(focus) else None, grip=grip, params=params, init=init, rng=rng
+    )
     warnings = list(reg.warnings)
     best = reg.best.transform
     plausible = [a.transform for a in reg.alignments[1:SPREAD_COUNT] if a.score >= reg.best.score - SPREAD_SCORE_GAP]
@@ -103,7 +106,8 @@ def transfer_descriptor(
         msg = "; ".join(w for w in warnings if w.startswith("poor")) + " (--strict)"
         raise TransferError(msg)
 
-    grasp = carry_grasp(desc.grasp, best) if desc.grasp is not None else None
+    anchor = grip[0] if len(grip) else None
+    grasp = carry_grasp(desc.grasp, best, anchor) if desc.grasp is not None else None
     if replan_grasp:
         if grasp is None:
             warnings.append("no grasp to re-plan: the source descriptor has none")

@@ -64,9 +64,16 @@ def carry_primitive(prim: Primitive, transform: Similarity) -> Primitive:
     return replace(prim, pos=pos, dir=direction, extent=extent)
 
 
-def carry_grasp(grasp: Grasp, transform: Similarity) -> Grasp:
-    """The grasp in the target frame: wrist position as a point, orientation turned by the rotation part."""
-    position = transform.apply_point(np.asarray(grasp.wrist_position))
+def carry_grasp(grasp: Grasp, transform: Similarity, anchor: Vector3 | None = None) -> Grasp:
+    """The grasp in the target frame: orientation turned by the rotation part; the wrist position as a point,
+    or, given the grasped part's ``anchor`` point (source frame, metres), at the carried anchor plus the turned
+    but unscaled wrist offset: the hand does not grow with the object (a palm 80 mm above a cap stays 80 mm
+    above the carried cap, where scaling the offset would push the fingers past a small cap onto the neck)."""
+    wrist = np.asarray(grasp.wrist_position, dtype=np.float64)
+    if anchor is None:
+        position = transform.apply_point(wrist)
+    else:
+        position = transform.apply_point(anchor) + transform.rotation @ (wrist - anchor)
     rotation = transform.rotation @ matrix_from_quat(grasp.wrist_orientation)
     return replace(grasp, wrist_position=_vec3(position), wrist_orientation=quat_from_matrix(rotation))
 
@@ -89,6 +96,15 @@ def focus_points(desc: Descriptor, model: Points) -> Points:
         d2 = ((model - seed) ** 2).sum(axis=1)
         out.append(model[int(np.argmin(d2))])
     return np.array(out, dtype=np.float64)
+
+
+def grip_points(desc: Descriptor, model: Points) -> Points:
+    """The grasped part's centre on the source model: the model point nearest the wrist position (metres,
+    source frame), (1, 3); (0, 3) when the descriptor has no grasp."""
+    if desc.grasp is None:
+        return np.zeros((0, 3))
+    d2 = ((model - np.asarray(desc.grasp.wrist_position)) ** 2).sum(axis=1)
+    return np.array([model[int(np.argmin(d2))]], dtype=np.float64)
 
 
 def axis_spread(chain: tuple[Primitive, ...], best: Similarity, others: list[Similarity]) -> tuple[float, float]:

@@ -80,6 +80,10 @@ class RegistrationParams:
     functional part alone)."""
     max_crop_rescale: float = 1.5
     """The functional-part refinement may change the whole-model scale by at most this factor (else rigid)."""
+    grip_frac: float = 0.08
+    """Radius of the grasped part's ball around each grip point, as a fraction of the source's diagonal."""
+    grip_floor: float = 0.05
+    """Added to both one-way fitnesses of the grip balls, so a scan missing the grasped part scores all alike."""
 
 
 @dataclass(frozen=True)
@@ -314,6 +318,19 @@ def _global_candidates(
     return scored
 
 
+def _grip_score(
+    src: Points, tgt: Points, grip: Points, fitted: Similarity, *, params: RegistrationParams, threshold: float
+) -> float:
+    """Two-way match of the balls around the grip points (source and carried into the target), in (0, 1]."""
+    radius = params.grip_frac * bbox_diagonal(src)
+    ball_s = src[functional_mask(src, grip, radius)]
+    ball_t = tgt[functional_mask(tgt, fitted.apply_points(grip), radius * fitted.scale)]
+    g_st = _fitness(_cloud(ball_s), _cloud(tgt), fitted, threshold)[0] if len(ball_s) else 0.0
+    g_ts = _fitness(_cloud(ball_t), _cloud(src), fitted.inverse(), threshold / fitted.scale)[0] if len(ball_t) else 0.0
+    floor = params.grip_floor
+    return math.sqrt((g_st + floor) * (g_ts + floor)) / (1.0 + floor)
+
+
 def _safe_similarity(matrix: FloatArray) -> Similarity:
     try:
         return Similarity.from_matrix(matrix)
@@ -326,6 +343,7 @@ def register_models(
     target: Points,
     *,
     focus: Points | None = None,
+    grip: Points | None = None,
     params: RegistrationParams | None = None,
     init: Similarity | None = None,
     rng: np.random.Generator,
@@ -333,7 +351,9 @@ def register_models(
     """Register ``source`` (metres, source frame) onto ``target`` (metres, target frame) as a similarity.
 
     ``focus``: (k, 3) points of the source's functional part (grasp position, axis points); with
-    ``params.whole`` or no focus the whole model is used in the refinement. ``init``: an optional extra start
+    ``params.whole`` or no focus the whole model is used in the refinement. ``grip``: (g, 3) points of the grasped
+    part (the model point nearest the wrist): alignments are also ranked by how well the small balls around them
+    match both ways, which tells a box's handle side from its mirror image. ``init``: an optional extra start
     (source to target, metres). Raises ``TransferError`` for unusable clouds.
     """
     params = params or RegistrationParams()
@@ -435,6 +455,10 @@ def register_models(
             if local.shape[0] > 0:
                 c_ts, _ = _fitness(_cloud(local), used_fine, fitted.inverse(), threshold / fitted.scale)
             score = score ** (1.0 / 3.0) * (c_st**0.75 * c_ts**0.25) ** (2.0 / 3.0)  # the functional part leads
+        if grip is not None and len(grip) > 0:
+            score *= _grip_score(
+                src, tgt_fine_pts, check_points(grip, "grip"), fitted, params=params, threshold=threshold
+            )
         fitness, rmse = _fitness(used_fine, tgt_fine, fitted, threshold)
         plane_rmse, agreement = plane_residuals(
             raw_sample, raw_normals, tgt, tgt_normals, fitted, max_distance_m=threshold

@@ -9,7 +9,7 @@ from schemas.descriptor import ObjectRef
 from tasks.errors import GraspError, TransferError
 from tasks.transfer import shapes
 from tasks.transfer.api import RegistrationParams, register_models, transfer_descriptor
-from tasks.transfer.carry import carry_grasp
+from tasks.transfer.carry import carry_grasp, grip_points
 from tasks.transfer.registration import check_model
 from tasks.transfer.similarity import Similarity, angle_between_deg, point_line_distance
 
@@ -68,8 +68,13 @@ def test_descriptor_moves_with_the_object(bottle_model: shapes.ShapeModel) -> No
     assert new.name == "twist-cap-to-bottle-b"
     assert new.object == ref
     assert new.grasp is not None
-    wrist = truth.apply_point(np.array(desc.grasp.wrist_position)) if desc.grasp else None
+    assert desc.grasp is not None
+    # the hand keeps its size: the wrist offset from the grasped part (the cap's top) turns but does not scale
+    (anchor,) = grip_points(desc, bottle_model.points)
+    wrist = truth.apply_point(anchor) + truth.rotation @ (np.array(desc.grasp.wrist_position) - anchor)
     assert np.linalg.norm(np.array(new.grasp.wrist_position) - wrist) < 2e-3
+    scaled = truth.apply_point(np.array(desc.grasp.wrist_position))
+    assert np.linalg.norm(np.array(new.grasp.wrist_position) - scaled) > 5e-3  # 0.2 x the 50 mm offset
     info = new.to_dict()["provenance"]["transfer"]
     assert info["scale"] == pytest.approx(0.8, rel=0.01)
     assert info["fitness"] > 0.8
