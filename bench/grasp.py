@@ -1,13 +1,13 @@
 """Benchmark the eigengrasp planner against closing the hand at the demonstrated pose (same run, same seeds).
 
-Objects: the four paper-task parts (built-in scenes of tasks.scenes when available, otherwise proxies of the
-same parts: microwave door handle, drawer handle, bottle cap, knob) and N randomised objects (boxes, cylinders,
-handles on a plate). Each object gets a simulated demonstration seed: a palm pose 20..60 mm off the part,
-facing it from above or from the side, with a random roll and ~10° of tilt noise. For each: plan (our figure)
-and the baseline (open hand at the seed, approach up to 30 mm, close, no search); force closure, the shake
-test, planning time.
+Objects: the four paper tasks as the built-in scenes (tasks.scenes, seeds 0..N-1 each: the object model sampled
+as ``pbd synth`` records it, the demonstrated palm pose as the seed) and randomised objects (boxes, cylinders,
+handles on a plate) whose simulated demonstration seed is a palm pose 20..60 mm off the part, facing it from above
+or from the side, with a random roll and ~10° of tilt noise. For each: plan (our figure) and the baseline (the
+open hand at the demonstrated pose, approach up to 30 mm, close, no search); force closure, the shake test, the
+palm's distance and angle from the demonstrated palm, planning time.
 
-    .venv/bin/python bench/grasp.py [--quick] [--objects N] [--seed S]
+    .venv/bin/python bench/grasp.py [--quick] [--objects N] [--scene-seeds N] [--seed S]
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ from schemas.descriptor import Grasp
 from tasks.arrays import Points
 from tasks.errors import GraspError
 from tasks.grasp import barrett
-from tasks.grasp.api import SHAKE_CHECKS, grasp_from_candidate, part_near, plan_on_model
+from tasks.grasp.api import grasp_from_candidate, part_near, plan_on_model
 from tasks.grasp.object_model import (
     ObjectModel,
     build_object_model,
@@ -55,12 +55,14 @@ def _cyl(  # noqa: PLR0917 -- small sampling helper
     r: float, hh: float, n: int, rng: np.random.Generator, rot: Rotation, at: np.ndarray
 ) -> Points:
     pts, _ = sample_cylinder_surface(r, hh, n, rng)
-    return rot.apply(pts) + at
+    out: Points = np.asarray(rot.apply(pts) + at, dtype=np.float64)
+    return out
 
 
 def _box(half: list[float], n: int, rng: np.random.Generator, at: np.ndarray) -> Points:
     pts, _ = sample_box_surface(np.array(half), n, rng)
-    return pts + at
+    out: Points = np.asarray(pts + at, dtype=np.float64)
+    return out
 
 
 def handle_on_plate(
@@ -99,26 +101,24 @@ def palm_seed(
     return target - rot.apply([0, 0, 1]) * gap, rot.as_quat()
 
 
-def paper_cases(rng: np.random.Generator) -> list[Case]:
-    """The four paper-task parts: from tasks.scenes when it exists, else proxies of the same parts."""
+def scene_cases(seeds: range) -> list[Case]:
+    """The four paper tasks as the built-in scenes (tasks.scenes), seeded instances: the object model sampled as
+    ``pbd synth`` records it (2048 points on the model links), the seed the scene's demonstrated palm pose."""
+    from tasks.scenes.catalog import SCENE_NAMES, build_scene
+    from tasks.scenes.kinematics import truth_descriptor
+    from tasks.scenes.surface import sample_object_model
+    from tasks.synth.record import OBJECT_MODEL_POINTS
+
     cases: list[Case] = []
-    down = np.array([0.0, 0.0, -1.0])
-    pts, c = handle_on_plate(0.012, 0.16, 0.04, True, rng)
-    pos, quat = palm_seed(c - np.array([0, 0.012, 0]), np.array([0.0, 1.0, 0.0]), 0.04, rng, np.array([0, 0, 1.0]))
-    cases.append(Case("microwave-handle", pts, pos, quat))
-    pts, c = handle_on_plate(0.010, 0.12, 0.035, False, rng)
-    pos, quat = palm_seed(c - np.array([0, 0.010, 0]), np.array([0.0, 1.0, 0.0]), 0.04, rng, np.array([1.0, 0, 0]))
-    cases.append(Case("drawer-handle", pts, pos, quat))
-    bottle = _cyl(0.035, 0.09, 3000, rng, Rotation.identity(), np.array([0.5, 0.0, 0.39]))
-    cap = _cyl(0.016, 0.012, 600, rng, Rotation.identity(), np.array([0.5, 0.0, 0.492]))
-    neck = _cyl(0.014, 0.01, 300, rng, Rotation.identity(), np.array([0.5, 0.0, 0.475]))
-    pts = np.concatenate([bottle, neck, cap])
-    pos, quat = palm_seed(np.array([0.5, 0.0, 0.504]), down, 0.04, rng)
-    cases.append(Case("bottle-cap", pts, pos, quat))
-    knob = _cyl(0.025, 0.012, 1200, rng, Rotation.from_euler("x", 90, degrees=True), np.array([0.5, -0.012, 0.5]))
-    plate = _box([0.08, 0.005, 0.08], 2000, rng, np.array([0.5, 0.005, 0.5]))
-    pos, quat = palm_seed(np.array([0.5, -0.024, 0.5]), np.array([0.0, 1.0, 0.0]), 0.04, rng)
-    cases.append(Case("knob", np.concatenate([knob, plate]), pos, quat))
+    for name in SCENE_NAMES:
+        for seed in seeds:
+            scene = build_scene(name, seed)
+            grasp = truth_descriptor(scene).grasp
+            assert grasp is not None
+            pts = sample_object_model(scene, OBJECT_MODEL_POINTS, np.random.default_rng(seed))
+            cases.append(
+                Case(f"{name} seed {seed}", pts, np.array(grasp.wrist_position), np.array(grasp.wrist_orientation))
+            )
     return cases
 
 
@@ -162,89 +162,120 @@ def random_cases(count: int, rng: np.random.Generator) -> list[Case]:
     return cases
 
 
-def baseline(model: ObjectModel, seed_pos: np.ndarray, seed_quat: np.ndarray) -> Grasp:
-    """Close the open hand at the demonstrated palm pose (approach up to 30 mm), no search."""
+def baseline(model: ObjectModel, seed_pos: np.ndarray, seed_quat: np.ndarray) -> Grasp | None:
+    """Close the open hand (spread 0) at the demonstrated palm pose (approach up to 30 mm), no search."""
     client = pb.connect(pb.DIRECT)
     try:
         obj = load_object(client, model)
         hand = barrett.load_hand(client)
         rot = Rotation.from_quat(seed_quat).as_matrix()
-        dofs = barrett.dofs_from_eigengrasps(0.0, -4.0)
-        out = evaluate_pose(client, hand, obj, model, rot, seed_pos, dofs, PlannerParams())
+        out = evaluate_pose(client, hand, obj, model, rot, seed_pos, 0.0, PlannerParams())
     finally:
         pb.disconnect(client)
     if out is None:
-        return Grasp(
-            "barrett", (0.0, -4.0), tuple(seed_pos), tuple(seed_quat), {"epsilon": 0.0, "force_closure": False}
-        )
+        return None
     pos, _, _, quality = out
     return Grasp(
         "barrett",
-        (0.0, -4.0),
+        (barrett.spread_amplitude(0.0), barrett.CLOSE_AMPLITUDE),
         (float(pos[0]), float(pos[1]), float(pos[2])),
         tuple(float(v) for v in seed_quat),  # type: ignore[arg-type]
         {"epsilon": quality.epsilon, "force_closure": quality.force_closure},
     )
 
 
+def offset_from(grasp: Grasp, seed_pos: np.ndarray, seed_quat: np.ndarray) -> tuple[float, float]:
+    """Distance (mm) and angle (degrees) of a grasp's palm from the demonstrated palm."""
+    dist = 1000.0 * float(np.linalg.norm(np.array(grasp.wrist_position) - seed_pos))
+    turn = Rotation.from_quat(seed_quat).inv() * Rotation.from_quat(grasp.wrist_orientation)
+    return dist, math.degrees(float(turn.magnitude()))
+
+
+@dataclass
+class Row:
+    """One case's figures: planner and baseline force closure, hold, offsets (mm, degrees), time (s)."""
+
+    name: str
+    fc: bool
+    hold: bool
+    eps: float
+    dist_mm: float
+    angle_deg: float
+    plan_s: float
+    base_fc: bool
+    base_hold: bool
+    base_dist_mm: float
+
+
+def run_case(case: Case, seed: int) -> Row:
+    """Plan (with the planner's own shake check), then shake-test the plan and the baseline."""
+    part = part_near(case.points, case.seed_pos)
+    model = build_object_model(part, np.random.default_rng(seed))
+    t0 = time.perf_counter()
+    try:
+        cand = plan_on_model(model, case.seed_pos, case.seed_quat, np.random.default_rng(seed))
+        grasp: Grasp | None = grasp_from_candidate(cand)
+    except GraspError:
+        grasp = None
+    plan_s = time.perf_counter() - t0
+    base = baseline(model, case.seed_pos, case.seed_quat)
+    fc = bool(grasp is not None and grasp.quality["force_closure"])
+    hold = bool(grasp is not None and shake_test(model, grasp).holds)
+    dist, angle = offset_from(grasp, case.seed_pos, case.seed_quat) if grasp is not None else (math.nan, math.nan)
+    base_fc = bool(base is not None and base.quality["force_closure"])
+    base_hold = bool(base is not None and shake_test(model, base).holds)
+    base_dist = offset_from(base, case.seed_pos, case.seed_quat)[0] if base is not None else math.nan
+    eps = float(grasp.quality["epsilon"]) if grasp is not None else 0.0
+    return Row(case.name, fc, hold, eps, dist, angle, plan_s, base_fc, base_hold, base_dist)
+
+
+def _share(rows: list[Row], field: str) -> str:
+    hits = sum(bool(getattr(r, field)) for r in rows)
+    return f"{hits}/{len(rows)} ({hits / max(len(rows), 1):.0%})"
+
+
 def main() -> int:
     """Run the benchmark and print the table."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="6 random objects instead of 21")
-    parser.add_argument("--objects", type=int, default=None, help="number of randomised objects")
+    parser.add_argument("--quick", action="store_true", help="1 seed per scene and 6 random objects")
+    parser.add_argument("--objects", type=int, default=None, help="number of randomised objects (default 21)")
+    parser.add_argument("--scene-seeds", type=int, default=None, help="seeds 0..N-1 of each scene (default 3)")
     parser.add_argument("--seed", type=int, default=7)
     args = parser.parse_args()
     n_random = args.objects if args.objects is not None else (6 if args.quick else 21)
+    n_scene = args.scene_seeds if args.scene_seeds is not None else (1 if args.quick else 3)
     rng = np.random.default_rng(args.seed)
-    cases = paper_cases(rng) + random_cases(n_random, rng)
-    rows = []
+    scenes = scene_cases(range(n_scene))
+    cases = scenes + random_cases(n_random, rng)
+    rows: list[Row] = []
     for case in cases:
-        part = part_near(case.points, case.seed_pos)
-        model = build_object_model(part, np.random.default_rng(args.seed))
-        results = []
-        for checks in (SHAKE_CHECKS, 0):
-            t0 = time.perf_counter()
-            try:
-                cand = plan_on_model(
-                    model, case.seed_pos, case.seed_quat, np.random.default_rng(args.seed), shake_checks=checks
-                )
-                grasp: Grasp | None = grasp_from_candidate(cand)
-            except GraspError:
-                grasp = None
-            plan_s = time.perf_counter() - t0
-            fc = bool(grasp is not None and grasp.quality["force_closure"])
-            hold = bool(grasp is not None and shake_test(model, grasp).holds)
-            eps = float(grasp.quality["epsilon"]) if grasp is not None else 0.0
-            results.append((fc, hold, plan_s, eps))
-        base = baseline(model, case.seed_pos, case.seed_quat)
-        base_fc = bool(base.quality["force_closure"])
-        base_hold = bool(shake_test(model, base).holds)
-        (fc, hold, plan_s, eps), (fc0, hold0, plan0_s, _) = results
-        rows.append((case.name, fc, hold, plan_s, eps, base_fc, base_hold, fc0, hold0, plan0_s))
+        r = run_case(case, args.seed)
+        rows.append(r)
         print(
-            f"{case.name:32s} ours fc={fc!s:5s} hold={hold!s:5s} eps={eps:.3f} {plan_s:4.1f}s"
-            f" | no shake check fc={fc0!s:5s} hold={hold0!s:5s} {plan0_s:4.1f}s"
-            f" | baseline fc={base_fc!s:5s} hold={base_hold!s:5s}",
+            f"{r.name:34s} ours fc={r.fc!s:5s} hold={r.hold!s:5s} eps={r.eps:.3f} off {r.dist_mm:5.1f} mm"
+            f" {r.angle_deg:5.1f} deg {r.plan_s:4.1f} s | baseline fc={r.base_fc!s:5s} hold={r.base_hold!s:5s}"
+            f" off {r.base_dist_mm:5.1f} mm",
             flush=True,
         )
-    n = len(rows)
-    paper = rows[:4]
-
-    def share(col: int) -> str:
-        return f"{sum(r[col] for r in rows) / n:.0%}"
-
-    def timing(col: int) -> str:
-        t = np.array([r[col] for r in rows])
-        return f"{np.median(t):.2f} / {t.max():.2f}"
-
+    paper = rows[: len(scenes)]
+    other = rows[len(scenes) :]
+    times = np.array([r.plan_s for r in rows])
+    dists = np.array([r.dist_mm for r in rows])
+    angles = np.array([r.angle_deg for r in rows])
     print()
-    print(f"{'figure':36s} {'planner':>14s} {'planner, no shake check':>24s} {'baseline: close at demo':>24s}")
-    fc_paper = [str(sum(r[c] for r in paper)) + "/4" for c in (1, 7, 5)]
-    print(f"{'force closure, paper tasks':36s} {fc_paper[0]:>14s} {fc_paper[1]:>24s} {fc_paper[2]:>24s}")
-    print(f"{'force closure, all objects':36s} {share(1):>14s} {share(7):>24s} {share(5):>24s}")
-    print(f"{'holds under the shake test':36s} {share(2):>14s} {share(8):>24s} {share(6):>24s}")
-    print(f"{'planning time median / max (s)':36s} {timing(3):>14s} {timing(9):>24s} {'0 (no search)':>24s}")
-    print(f"objects: {n} ({len(paper)} paper-task parts + {n - len(paper)} randomised), seed {args.seed}")
+    print(f"{'figure':44s} {'planner':>18s} {'baseline: close at demo':>24s}")
+    for label, subset in (("scenes", paper), ("randomised objects", other), ("all", rows)):
+        print(f"{'force closure, ' + label:44s} {_share(subset, 'fc'):>18s} {_share(subset, 'base_fc'):>24s}")
+        held, base_held = _share(subset, "hold"), _share(subset, "base_hold")
+        print(f"{'holds under the shake test, ' + label:44s} {held:>18s} {base_held:>24s}")
+    scene_names = sorted({r.name.split(" seed")[0] for r in paper})
+    fc_tasks = sum(any(r.fc for r in paper if r.name.startswith(n + " seed")) for n in scene_names)
+    print(f"{'paper tasks with a force closure (any seed)':44s} {f'{fc_tasks}/{len(scene_names)}':>18s}")
+    print(f"{'offset from demo, median / max (mm)':44s} {f'{np.nanmedian(dists):.1f} / {np.nanmax(dists):.1f}':>18s}")
+    print(f"{'angle from demo, median / max (deg)':44s} {f'{np.nanmedian(angles):.1f} / {np.nanmax(angles):.1f}':>18s}")
+    timing = f"{np.median(times):.2f} / {times.max():.2f}"
+    print(f"{'planning time median / max (s)':44s} {timing:>18s} {'0 (no search)':>24s}")
+    print(f"objects: {len(rows)} ({len(paper)} scene instances + {len(other)} randomised), seed {args.seed}")
     print("targets: force closure on 4/4 paper tasks, 95% hold, < 5 s per plan (2 cores, shared)")
     return 0
 

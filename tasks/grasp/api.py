@@ -97,19 +97,20 @@ def wrist_pose_at(track: PoseTrack, stamp_ns: int) -> tuple[Vector3, FloatArray]
 
 def stillest_time_ns(track: PoseTrack, stamp_ns: int, window_s: float = SEED_WINDOW_S) -> int:
     """The stamp (ns) in ``[stamp_ns - window_s, stamp_ns]`` where the wrist moves least (over ±0.1 s: 10 mm or
-    2° count alike): the moment the demonstrator's hand rested on the part while closing, the grasp. A
-    primitive's detected start can come late, after the hand began turning the part (a cap)."""
+    2° count alike; near-ties go to the latest): the moment the demonstrator's hand rested on the part while
+    closing, the grasp. A primitive's detected start can come late, after the hand began turning the part."""
     half_ns = 100_000_000
-    best, best_cost = stamp_ns, math.inf
+    times: list[int] = []
+    costs: list[float] = []
     for k in range(round(window_s / 0.05), -1, -1):
         t = stamp_ns - k * 50_000_000
         p0, q0 = wrist_pose_at(track, t - half_ns)
         p1, q1 = wrist_pose_at(track, t + half_ns)
         turn = float((Rotation.from_quat(q0).inv() * Rotation.from_quat(q1)).magnitude())
-        cost = float(np.linalg.norm(p1 - p0)) / 0.01 + turn / math.radians(2.0)
-        if cost <= best_cost:
-            best, best_cost = t, cost
-    return best
+        times.append(t)
+        costs.append(float(np.linalg.norm(p1 - p0)) / 0.01 + turn / math.radians(2.0))
+    floor = min(costs) + 0.25  # ties (within 2.5 mm or 0.5°) go to the latest moment
+    return max(t for t, c in zip(times, costs, strict=True) if c <= floor)
 
 
 def _check_seed(seed_position: object, seed_quat_xyzw: object) -> tuple[Vector3, FloatArray]:

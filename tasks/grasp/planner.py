@@ -43,6 +43,10 @@ LINE_SPREADS = (-1.13, 0.0)
 LINE_POSES = tuple((back, math.radians(roll)) for back in (0.0, 0.02) for roll in (0.0, 15.0, -15.0))
 """Besides the annealed states, the demonstrated pose itself and its neighbours on the demonstrated approach are
 tried: (palm m behind the demonstrated palm, roll rad about the approach), each with spread 0 and 1.13 rad."""
+FOCUS_RADIUS_M = 0.075
+"""Force closure must come from contacts within 75 mm of where the demonstrated approach meets the object: the
+part the demonstrator gripped (the handle's bar, not the door face 82 mm behind its front; a box's sides from its
+top)."""
 OPEN_MIN_RAD = 0.0
 """How far the planner may open the fingers beyond the robot's open hand when they touch the object model at a
 pose (down to flat): the sampled models are sparse and their convex pieces bulge, and keeping the open hand
@@ -56,8 +60,8 @@ BACK_OFF_M = 0.02
 class PlannerParams:
     """Planner settings: annealing steps and chains, candidates tried in pybullet, ranges (the wrist angles
     within ±25°: a grasp must stay near the demonstration), friction; ranking scales (lateral offset from the
-    demonstrated approach 20 mm, angle 20°, advance along it 50 mm) and the neighbourhood a grasp must lie in
-    (25 mm off the demonstrated approach, 25°)."""
+    demonstrated approach 20 mm, angle 20°, advance along it 50 mm, behind the demonstrated palm 10 mm) and the
+    neighbourhood a grasp must lie in (25 mm off the demonstrated approach, 25°)."""
 
     steps: int = 400
     chains: int = 4
@@ -71,6 +75,7 @@ class PlannerParams:
     position_scale_m: float = 0.02
     angle_scale_rad: float = math.radians(20.0)
     advance_scale_m: float = 0.05
+    behind_scale_m: float = 0.01
     near_position_m: float = 0.025
     near_angle_rad: float = math.radians(25.0)
     max_pivot_m: float = 0.20
@@ -193,11 +198,13 @@ def demo_offset(rot: FloatArray, pos: Vector3, space: ApproachSpace, params: Pla
 
 
 def closeness(offset: DemoOffset, params: PlannerParams) -> float:
-    """Ranking cost (unitless): offset over 20 mm + angle over 20° + |advance| over 50 mm."""
+    """Ranking cost (unitless): offset over 20 mm + angle over 20° + advance over 50 mm, or distance behind the
+    demonstrated palm over 10 mm (a palm held back reaches the part with the fingertips only)."""
     return (
         offset.lateral_m / params.position_scale_m
         + offset.angle_rad / params.angle_scale_rad
-        + abs(offset.advance_m) / params.advance_scale_m
+        + max(offset.advance_m, 0.0) / params.advance_scale_m
+        + max(-offset.advance_m, 0.0) / params.behind_scale_m
     )
 
 
@@ -231,11 +238,13 @@ def evaluate_pose(  # noqa: PLR0917 -- pybullet ids, model, pose, spread, params
     pos: Vector3,
     spread: float,
     params: PlannerParams,
+    focus: Vector3 | None = None,
 ) -> tuple[Vector3, FloatArray, FloatArray, GraspQuality] | None:
     """Execute one grasp as the robot does, in pybullet: the hand open at ``spread`` (rad) at the pose (backed
     off up to 20 mm when in collision; None when still in collision), approach up to 30 mm to contact along +z,
-    close the fingers until contact. Returns the palm position after the approach, the open DOFs used (4,), the
-    closed joints (7,) and the quality."""
+    close the fingers until contact. With ``focus`` (world, m), only contacts within ``FOCUS_RADIUS_M`` of it
+    count for the quality (the grasped part). Returns the palm position after the approach, the open DOFs used
+    (4,), the closed joints (7,) and the quality."""
     quat = Rotation.from_matrix(rot).as_quat()
     free = _free_pregrasp(client_id, hand, obj, rot, pos, quat, spread)
     if free is None:
@@ -244,7 +253,11 @@ def evaluate_pose(  # noqa: PLR0917 -- pybullet ids, model, pose, spread, params
     final_pos = closing.approach_to_contact(client_id, hand, obj, pos, quat, params.approach_max_m)
     closed = closing.close_fingers(client_id, hand, obj, dofs)
     contacts = closing.contacts_of(client_id, hand, obj)
-    quality = grasp_quality(contacts.positions, contacts.normals_in, model.center, model.radius, params.mu)
+    positions, normals = contacts.positions, contacts.normals_in
+    if focus is not None and len(positions):
+        keep = np.linalg.norm(positions - focus, axis=1) <= FOCUS_RADIUS_M
+        positions, normals = positions[keep], normals[keep]
+    quality = grasp_quality(positions, normals, model.center, model.radius, params.mu)
     return final_pos, dofs, closed, quality
 
 
@@ -284,6 +297,7 @@ def search(
     for a1, (back, roll) in itertools.product(LINE_SPREADS, LINE_POSES):
         x = np.array([a1, 0.0, space.pivot_m + back, roll, 0.0])
         picks.insert(0, (x, energy(x)))
+    focus = seed_pos + seed_rot[:, 2] * space.pivot_m
     client = pb.connect(pb.DIRECT)
     try:
         obj = load_object(client, model)
@@ -292,7 +306,7 @@ def search(
         for x, e in picks:
             rot, pos = space.pose(x)
             spread = float(barrett.dofs_from_eigengrasps(float(x[0]), 0.0)[0])
-            result = evaluate_pose(client, hand, obj, model, rot, pos, spread, prm)
+            result = evaluate_pose(client, hand, obj, model, rot, pos, spread, prm, focus)
             if result is None:
                 continue
             final_pos, _, closed, quality = result

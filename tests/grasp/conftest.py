@@ -29,4 +29,5 @@ def box_points() -> Points:
     """(n, 3) points on a 60 x 50 x 80 mm box standing at (0.5, 0.1, 0.3) (centre), world metres."""
     rng = np.random.default_rng(1)
     pts, _ = sample_box_surface(np.array([0.03, 0.025, 0.04]), 3000, rng)
-    return pts + np.array([0.5, 0.1, 0.3])
+    out: Points = np.asarray(pts + np.array([0.5, 0.1, 0.3]), dtype=np.float64)
+    return out
