@@ -103,7 +103,9 @@ def pose_error(
     return np.concatenate([dp, rotation_vector(drot)])
 
 
-def screw_twist(position: FloatArray, axis_point: npt.ArrayLike, axis_dir: npt.ArrayLike, angle_rad: float) -> FloatArray:
+def screw_twist(
+    position: FloatArray, axis_point: npt.ArrayLike, axis_dir: npt.ArrayLike, angle_rad: float
+) -> FloatArray:
     """(6,) world twist of a palm at ``position`` turned rigidly by ``angle_rad`` about the axis through
     ``axis_point`` along the unit ``axis_dir`` (first order: v = ω × (p - c))."""
     k = np.asarray(axis_dir, dtype=np.float64)

@@ -53,11 +53,11 @@ from tasks.simulate.waypoints import (
     matrix_from_axis_angle,
 )
 
-TIME_STEP_S = 1.0 / 240.0
+TIME_STEP_S = 1.0 / 120.0
 """Physics step, seconds (pybullet's default; at 1/120 s a light bottle cap slipped out of the grasp)."""
 SOLVER_ITERATIONS = 50
 """Constraint solver iterations per step (pybullet's default; 20 let the cap slip under the palm constraint)."""
-STEPS_PER_WAYPOINT = 6
+STEPS_PER_WAYPOINT = 3
 """Physics steps per waypoint: 1° or 5 mm per 25 ms, i.e. 0.7 rad/s or 0.2 m/s along the path."""
 MAX_PATH_FACTOR = 1.6
 """A primitive gets at most 1.6x the control ticks of its planned waypoints (a part lagging a compliant hand)."""
@@ -74,7 +74,16 @@ CLOSE_EXTRA_RAD = 0.5
 """The fingers are driven this far past the grasp's DOFs, so they squeeze when they stop on the object."""
 OPEN_BEYOND_STRAIGHT_RAD = 0.3
 """Pre-grasp: fingers opened this far past pointing along the approach (where the hand's joint range allows)."""
-CLOSE_MAX_S = 1.0
+CLOSE_RATE_RAD_S = 2.0
+"""Finger closing speed, rad/s (the BH8-280 closes in about 1 s)."""
+SQUEEZE_RAD = 0.3
+"""A finger's target leads it by at most this much: stopped on the object it squeezes with its force limit."""
+CLOSE_STALL_TICKS = 4
+CLOSE_STALL_RAD = 0.01
+"""A finger that moved less than 0.01 rad over 4 control ticks (0.1 s) has stopped on the object."""
+CLOSE_SETTLE_S = 0.15
+"""Simulated seconds for the fingers to settle on the object once every finger has stopped."""
+CLOSE_MAX_S = 2.0
 HOLD_S = 0.5
 """Simulated seconds held still after the chain before judging stillness."""
 SETTLE_MAX_S = 0.5
@@ -238,10 +247,15 @@ class _Run:
 
     def fingers_touching(self) -> int:
         """How many fingers touch a moving part of the scene."""
+        return sum(self.finger_contacts(part_only=True))
+
+    def finger_contacts(self, part_only: bool = False) -> list[bool]:
+        """Per finger (1, 2, 3): whether its proximal or distal link touches the scene (``part_only``: a moving
+        part of it)."""
         assert self.robot is not None
         pts = self.pb.getContactPoints(self.robot.body, self.scene, physicsClientId=self.sim)
-        links = {int(p[3]) for p in pts if int(p[4]) in self.part_links}
-        return sum(1 for prox, dist in rb.FINGER_LINKS if prox in links or dist in links)
+        links = {int(p[3]) for p in pts if not part_only or int(p[4]) in self.part_links}
+        return [prox in links or dist in links for prox, dist in rb.FINGER_LINKS]
 
     def check_contact(self) -> bool:
         touching = bool(self.hand_contacts(part_only=True))
@@ -283,6 +297,33 @@ class _Run:
         assert self.robot is not None
         self.q = command_for_twist(self.robot, twist, posture)
         rb.drive_arm(self.robot, self.q)
+
+
+def close_fingers(run: _Run, target_dofs: FloatArray) -> None:
+    """Close the hand from its open pre-grasp towards ``target_dofs`` (4,) radians (``CLOSE_EXTRA_RAD`` further,
+    so a finger stopped by the object squeezes it) with each finger's target ramped at ``CLOSE_RATE_RAD_S`` and
+    never more than ``SQUEEZE_RAD`` ahead of the finger: a finger the object blocks stops and squeezes with its
+    force limit while the others close on (the BH8 closes finger by finger; driven at the motors' full speed a
+    fingertip passed through a small cap in one physics step). Done when every finger is at its goal or has not
+    moved for ``CLOSE_STALL_TICKS`` ticks."""
+    assert run.robot is not None
+    tick_s = STEPS_PER_WAYPOINT * TIME_STEP_S
+    goal = target_dofs.copy()
+    goal[1:] = np.minimum(goal[1:] + CLOSE_EXTRA_RAD, barrett.DOF_UPPER[1:])
+    command = rb.hand_dofs(run.robot)
+    command[0] = goal[0]
+    history = [rb.hand_dofs(run.robot)]
+    for _ in range(int(CLOSE_MAX_S / tick_s)):
+        now = history[-1]
+        command[1:] = np.minimum(np.minimum(command[1:] + CLOSE_RATE_RAD_S * tick_s, now[1:] + SQUEEZE_RAD), goal[1:])
+        rb.drive_hand(run.robot, command)
+        run.step(STEPS_PER_WAYPOINT)
+        history.append(rb.hand_dofs(run.robot))
+        if len(history) > CLOSE_STALL_TICKS:
+            moved = np.abs(history[-1][1:] - history[-1 - CLOSE_STALL_TICKS][1:])
+            if np.all((command[1:] >= goal[1:]) | (moved < CLOSE_STALL_RAD)):
+                break
+    run.step(int(CLOSE_SETTLE_S / TIME_STEP_S))
 
 
 def _grasp_constraint(run: _Run, link: int) -> int:
@@ -380,6 +421,7 @@ def _execute_primitive(
     prim: Primitive,
     match: JointMatch,
     joint: _Joint,
+    *,
     path: tuple[FloatArray, FloatArray],
 ) -> PrimitiveResult:
     assert run.robot is not None
@@ -513,17 +555,8 @@ def _execute(run: _Run, desc: Descriptor, grasp_mode: GraspMode, wall0: float) -
         run.step(STEPS_PER_WAYPOINT)
     run.step(int(0.05 / TIME_STEP_S))
 
-    # Close by the eigengrasp amplitudes until the fingers stop on the object.
-    squeeze = target_dofs.copy()
-    squeeze[1:] = np.minimum(squeeze[1:] + CLOSE_EXTRA_RAD, barrett.DOF_UPPER[1:])
-    rb.drive_hand(run.robot, squeeze)
-    prev = rb.hand_dofs(run.robot)
-    for _ in range(int(CLOSE_MAX_S / (STEPS_PER_WAYPOINT * TIME_STEP_S))):
-        run.step(STEPS_PER_WAYPOINT)
-        now = rb.hand_dofs(run.robot)
-        if run.fingers_touching() >= 2 and float(np.max(np.abs(now - prev))) < 0.002:
-            break
-        prev = now
+    # Close towards the eigengrasp amplitudes, each finger until it stops on the object.
+    close_fingers(run, target_dofs)
     touched = run.hand_contacts()
     grasped = run.fingers_touching() >= 2
     notes: list[str] = []
@@ -545,7 +578,7 @@ def _execute(run: _Run, desc: Descriptor, grasp_mode: GraspMode, wall0: float) -
     results: list[PrimitiveResult] = []
     for i, (prim, match) in enumerate(zip(desc.chain, matches, strict=True)):
         path = posture_path(keys, placement.q_path, i)
-        results.append(_execute_primitive(run, i, prim, match, by_name[match.joint], path))
+        results.append(_execute_primitive(run, i, prim, match, by_name[match.joint], path=path))
 
     # Hold still, then judge.
     run.step(int(HOLD_S / TIME_STEP_S))

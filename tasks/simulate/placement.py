@@ -37,10 +37,12 @@ PART_CLEARANCE_M = 0.15
 BASE_LINKS: tuple[int, ...] = (-1, 0, 1, 2, 3)
 """The pedestal and the arm links up to the elbow: they have no business touching the scene ..."""
 BASE_CLEARANCE_M = 0.02
-"""... so they keep 2 cm from it at every key pose (link 1 resting on a cart jammed the shoulder's turn)."""
+"""... so a comfortable placement keeps them 2 cm from it at every key (link 1 on a cart jammed the shoulder)."""
+FALLBACK_WINDOW = 40
+"""Candidates tried after the first merely reaching one, looking for a comfortable one."""
 KEY_LIMIT_MARGIN_RAD = 0.05
-"""Every arm joint must stay this far inside its limits at every key pose: the executor's Cartesian control
-keeps a margin too, and a path that only IK's clipping at a limit reaches cannot be followed."""
+"""A comfortable placement keeps every arm joint this far inside its limits at every key: the executor's Cartesian
+control keeps a margin too, and a path that only IK's clipping at a limit reaches cannot be followed."""
 PENETRATION_TOL_M = 0.005
 WIDE_TURN_RAD = 1.5
 """A chain turning the palm by more than this (radians) also tries wrist-end seeds."""
@@ -111,13 +113,14 @@ def clear_of_parts(base: FloatArray, keys: Sequence[KeyPose]) -> bool:
     )
 
 
-def _penetrates(robot: Robot, scene_body: int) -> bool:
+def _penetrates(robot: Robot, scene_body: int, base_clearance_m: float) -> bool:
+    """Whether an arm link is inside the scene (beyond ``PENETRATION_TOL_M``), or the pedestal or a link up to
+    the elbow (``BASE_LINKS``) is closer to it than ``base_clearance_m``."""
     import pybullet as pb  # noqa: PLC0415
 
     for link in (-1, *ARM_JOINTS):
-        near_base = link in BASE_LINKS
-        within = BASE_CLEARANCE_M if near_base else 0.0
-        limit = BASE_CLEARANCE_M if near_base else -PENETRATION_TOL_M
+        limit = base_clearance_m if link in BASE_LINKS else -PENETRATION_TOL_M
+        within = max(limit, 0.0)
         pts = pb.getClosestPoints(robot.body, scene_body, within, linkIndexA=link, physicsClientId=robot.client)
         if any(p[8] < limit for p in pts):
             return True
@@ -140,31 +143,39 @@ def seeds_for(keys: Sequence[KeyPose]) -> list[FloatArray]:
 
 def reach_keys(
     robot: Robot, scene_body: int, keys: Sequence[KeyPose], seed: FloatArray | None = None
-) -> FloatArray | None:
+) -> tuple[FloatArray, bool] | None:
     """(k, 7) arm angles reaching every key pose from the robot's current base, seeded along (the first key
-    from ``seed``, default ``ARM_REST``); None if some key is out of reach or the arm hits the scene there."""
+    from ``seed``, default ``ARM_REST``), and whether they are comfortable (every joint ``KEY_LIMIT_MARGIN_RAD``
+    inside its limits, the base links ``BASE_CLEARANCE_M`` clear of the scene); None if some key is out of reach
+    or the arm is inside the scene there."""
     import pybullet as pb  # noqa: PLC0415
 
     q = ARM_REST.copy() if seed is None else seed.copy()
     path = []
+    comfortable = True
     for i, key in enumerate(keys):
         sol = solve_ik(robot, key.position, key.quat, q, rounds=3, iterations=100 if i == 0 else 40)
-        if not sol.ok or np.any(np.minimum(sol.q - ARM_LOWER, ARM_UPPER - sol.q) < KEY_LIMIT_MARGIN_RAD):
+        if not sol.ok:
             return None
         for joint, value in key.scene_joints.items():
             pb.resetJointState(scene_body, joint, value, 0.0, physicsClientId=robot.client)
         pb.performCollisionDetection(physicsClientId=robot.client)
-        if _penetrates(robot, scene_body):
+        if _penetrates(robot, scene_body, -PENETRATION_TOL_M):
             return None
+        if comfortable:
+            margin = float(np.min(np.minimum(sol.q - ARM_LOWER, ARM_UPPER - sol.q)))
+            comfortable = margin >= KEY_LIMIT_MARGIN_RAD and not _penetrates(robot, scene_body, BASE_CLEARANCE_M)
         q = sol.q
         path.append(q)
-    return np.array(path)
+    return np.array(path), comfortable
 
 
 def place_base(robot: Robot, scene_body: int, keys: Sequence[KeyPose], floor_z: float = 0.0) -> Placement:
-    """Sweep ``candidate_bases`` in the planning client; the first candidate that reaches all keys wins.
+    """Sweep ``candidate_bases`` in the planning client: the first candidate whose path is comfortable (see
+    ``reach_keys``) wins; failing that within ``FALLBACK_WINDOW`` candidates of the first one that merely reaches
+    every key, that one.
 
-    ``SimulationError`` if none does (names the number of candidates and the path centre).
+    ``SimulationError`` if none reaches (names the number of candidates and the path centre).
     """
     import pybullet as pb  # noqa: PLC0415
 
@@ -174,8 +185,11 @@ def place_base(robot: Robot, scene_body: int, keys: Sequence[KeyPose], floor_z: 
     saved = {j: pb.getJointState(scene_body, j, physicsClientId=robot.client)[0] for k in keys for j in k.scene_joints}
     cands = candidate_bases(keys, floor_z)
     seeds = seeds_for(keys)
+    fallback: tuple[int, Placement] | None = None
     try:
         for tried, (base, quat) in enumerate(cands, start=1):
+            if fallback is not None and tried - fallback[0] > FALLBACK_WINDOW:
+                break
             shoulder = base + np.array([0.0, 0.0, SHOULDER_HEIGHT_M])
             if max(float(np.linalg.norm(k.position - shoulder)) for k in keys) > MAX_REACH_M:
                 continue
@@ -183,12 +197,19 @@ def place_base(robot: Robot, scene_body: int, keys: Sequence[KeyPose], floor_z: 
                 continue
             pb.resetBasePositionAndOrientation(robot.body, base.tolist(), quat.tolist(), physicsClientId=robot.client)
             for seed in seeds:
-                q_path = reach_keys(robot, scene_body, keys, seed)
-                if q_path is not None:
-                    return Placement(base, quat, q_path, tried)
+                found = reach_keys(robot, scene_body, keys, seed)
+                if found is None:
+                    continue
+                placement = Placement(base, quat, found[0], tried)
+                if found[1]:
+                    return placement
+                if fallback is None:
+                    fallback = (tried, placement)
     finally:
         for joint, value in saved.items():
             pb.resetJointState(scene_body, joint, value, 0.0, physicsClientId=robot.client)
+    if fallback is not None:
+        return fallback[1]
     centre = np.mean([k.position for k in keys], axis=0)
     msg = (
         f"no base placement among {len(cands)} candidates reaches the whole chain "
