@@ -36,7 +36,7 @@ def test_scene_grasp_is_near_the_demonstration_and_executes(name: str) -> None:
     assert offset_m < 0.02
     assert turn.magnitude() < math.radians(20.0)
     assert grasp.eigengrasps[1] == pytest.approx(barrett.CLOSE_AMPLITUDE)  # closes towards the full fist
-    assert grasp.quality["demo_offset_m"] < 0.025
+    assert grasp.quality["demo_offset_m"] <= 0.02
     if name == "bottle":  # the cap: force closure (the handles' sparse models often have none there: README)
         assert grasp.quality["force_closure"] is True
         assert grasp.quality["epsilon"] > 0.0
