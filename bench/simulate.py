@@ -1,272 +1,251 @@
-"""Benchmark of simulated execution (issue 7): success rate, success with a disturbed axis, speed.
+"""Benchmark of simulated execution (issue 7): descriptors LEARNED from synthetic demonstrations, executed in the
+exact scene instance they were demonstrated in; success, success with a disturbed axis, speed.
 
-Runs randomised scene instances; for each, the descriptor as given and the descriptor with every axis moved by
-2 cm and tilted by 5° (compliance), with the grasp held by a fixed palm constraint (ours) and, in the same run,
-by finger friction alone (the baseline column). Prints a table against the targets (95 %, 80 %, >= 50x real
-time). ``--quick`` runs a handful of instances.
+Each instance cycles through the four built-in scenes (``tasks.scenes``) with a seed drawn from ``--seed``'s rng:
+``tasks.synth.record.synthesize`` writes its demonstration (MCAP), ``tasks.ingest`` reads it into a store and
+``tasks.learn.api.learn_descriptor`` learns the descriptor, grasp planned (``tasks.grasp``) - the stage functions,
+no Prefect. Then ``tasks.simulate.execute`` runs, in that instance (``scene_setup_for(build_scene(name, seed))``):
+the learned descriptor; the learned descriptor with every axis moved by 2 cm and tilted by 5 degrees
+(``tasks.simulate.disturb``); the same two with the scene's truth descriptor (``truth_descriptor``: true chain,
+demonstrated grasp), all with the palm-constraint grasp; and the learned descriptor held by finger friction alone.
+Instances run in ``--workers`` processes. Prints the table against the targets (95 %, 80 %, >= 50x real time),
+the per-scene breakdown and every failure's reason.
 
-    .venv/bin/python bench/simulate.py [--quick] [--instances N] [--seed S]
+    .venv/bin/python bench/simulate.py [--quick] [--instances N] [--seed S] [--workers W] [--verbose]
 """
 
 from __future__ import annotations
 
 import argparse
+import multiprocessing
 import sys
+import tempfile
 import time
-from collections import defaultdict
+from collections import Counter, defaultdict
+from collections.abc import Iterable
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from schemas.descriptor import Descriptor
-from tasks.errors import PbdError
-from tasks.simulate.disturb import disturb_descriptor
-from tasks.simulate.execute import GraspMode, SceneSetup, execute
-from tasks.simulate.result import SimulationResult
-
 SHIFT_M = 0.02
 TILT_DEG = 5.0
 TARGETS = {"success": 0.95, "disturbed": 0.80, "speed": 50.0}
+COLUMNS: tuple[tuple[str, str, str, str], ...] = (
+    ("learned", "learned", "nominal", "constraint"),
+    ("learned, disturbed", "learned", "disturbed", "constraint"),
+    ("truth", "truth", "nominal", "constraint"),
+    ("truth, disturbed", "truth", "disturbed", "constraint"),
+    ("learned, friction only", "learned", "nominal", "friction"),
+)
+"""(label, descriptor, axis, grasp mode) of each execution per instance."""
 
 
 @dataclass(frozen=True)
-class Instance:
-    """One randomised scene instance and the descriptor to execute there."""
+class Run:
+    """One execution: its column, outcome, reason when failed, simulated / wall / CPU seconds end to end, and
+    wall / CPU seconds of the physics and control loop."""
 
+    column: str
+    success: bool
+    reason: str
+    sim_s: float = 0.0
+    wall_s: float = 0.0
+    cpu_s: float = 0.0
+    loop_s: float = 0.0
+    loop_cpu_s: float = 0.0
+
+
+@dataclass(frozen=True)
+class InstanceResult:
+    """All executions of one instance, and the seconds spent synthesising, ingesting and learning."""
+
+    index: int
     scene: str
-    setup: SceneSetup
-    descriptor: Descriptor
-    urdf: Path
+    seed: int
+    chain: str
+    runs: tuple[Run, ...]
+    learn_s: float
+    learn_note: str
 
 
-def builtin_instances(n: int, rng: np.random.Generator) -> tuple[list[Instance], str] | None:
-    """Instances of the built-in scenes with their descriptors, or None when tasks.scenes is not there."""
-    try:
-        from tasks.simulate.scenes import scene_instances
-    except ImportError:
-        return None
-    try:
-        return scene_instances(n, rng)
-    except PbdError as err:
-        print(f"built-in scenes unusable ({err}); falling back to procedural objects", file=sys.stderr)
-        return None
+def failure_reason(result: object) -> str:
+    """Why a ``SimulationResult`` failed, in a few words."""
+    from tasks.simulate.result import SimulationResult
+
+    assert isinstance(result, SimulationResult)
+    if not result.grasped:
+        return "fingers did not close on the part"
+    short = [p for p in result.primitives if not p.success]
+    parts = [
+        f"{p.joint} {p.fraction:.0%} ({p.stopped})" if p.fraction < 0.9 else f"{p.joint} not still ({p.end_speed:.2f})"
+        for p in short
+    ]
+    if not result.contact_kept:
+        parts.append(f"contact lost ({result.contact_fraction:.0%})")
+    return "; ".join(parts) or "unknown"
 
 
-def procedural_instances(n: int, rng: np.random.Generator, folder: Path) -> tuple[list[Instance], str]:
-    """Randomised procedural stand-ins of the paper's four tasks (tasks.simulate.objects) with truth descriptors:
-    a hinged door (microwave), a sliding door, a lever-handle door (two rotations) and a bottle cap."""
-    import pybullet as pb
-
-    from tasks.simulate.objects import CapSpec, DoorSpec, LeverDoorSpec, SlidingDoorSpec, write_urdf
-
-    out: list[Instance] = []
-    for i in range(n):
-        kind = ("hinged-door", "sliding-door", "lever-door", "bottle-cap")[i % 4]
-        if kind == "hinged-door":
-            width = float(rng.uniform(0.5, 0.9))
-            spec_d = DoorSpec(
-                float(rng.uniform(-0.1, 0.1)),
-                float(rng.uniform(-0.2, 0.2)),
-                float(rng.uniform(0.4, 1.1)),
-                width,
-                width - 0.1,
-            )
-            text, desc = spec_d.urdf(), spec_d.descriptor(float(rng.uniform(0.6, 1.4)))
-        elif kind == "sliding-door":
-            spec_s = SlidingDoorSpec(
-                float(rng.uniform(-0.1, 0.1)), float(rng.uniform(-0.3, 0.3)), float(rng.uniform(0.5, 1.1))
-            )
-            text, desc = spec_s.urdf(), spec_s.descriptor(float(rng.uniform(0.2, 0.5)))
-        elif kind == "lever-door":
-            spec_l = LeverDoorSpec(
-                float(rng.uniform(-0.1, 0.1)),
-                float(rng.uniform(-0.2, 0.2)),
-                float(rng.uniform(0.5, 1.0)),
-                float(rng.uniform(0.65, 0.8)),
-            )
-            text, desc = spec_l.urdf(), spec_l.descriptor(float(rng.uniform(0.4, 0.8)), float(rng.uniform(0.6, 1.2)))
-        else:
-            spec_c = CapSpec(float(rng.uniform(-0.2, 0.2)), float(rng.uniform(-0.2, 0.2)), float(rng.uniform(0.3, 0.9)))
-            text, desc = spec_c.urdf(), spec_c.descriptor(float(rng.uniform(1.5, 4.0)))
-        path = write_urdf(text, folder, f"{kind}-{i}")
-
-        def load(client: int, path: Path = path) -> int:
-            return int(pb.loadURDF(str(path), useFixedBase=True, physicsClientId=client))
-
-        out.append(Instance(kind, SceneSetup(kind, load), desc, path))
-    source = (
-        "procedural stand-ins of the four tasks (tasks.simulate.objects: hinged door, sliding door, lever door, "
-        "bottle cap); the built-in scenes (tasks.scenes) were not available"
-    )
-    return out, source
-
-
-def learn_instances(instances: list[Instance], folder: Path, seed: int) -> tuple[list[Instance], int]:
-    """Replace each truth descriptor by one learned from a synthetic demonstration (tasks.simulate.demo_recording
-    -> MCAP -> ingest -> learn); the truth grasp is kept (no object model is recorded, so learn plans none).
-    Returns the instances and how many could not be learned (those keep their truth descriptor)."""
+def run_instance(index: int, name: str, seed: int, folder: str, bench_seed: int) -> InstanceResult:
+    """Synthesise, ingest and learn instance ``(name, seed)``, then execute every column there."""
+    from tasks.errors import PbdError
     from tasks.ingest.api import ingest_recording
     from tasks.learn.api import learn_descriptor
     from tasks.learn.params import LearnParams
     from tasks.recording.load import load_recording
-    from tasks.simulate.demo_recording import demo_tracks, write_demo
+    from tasks.scenes.catalog import build_scene
+    from tasks.scenes.kinematics import truth_descriptor
+    from tasks.simulate.disturb import disturb_descriptor
+    from tasks.simulate.execute import execute
+    from tasks.simulate.scenes import scene_setup_for
     from tasks.store import Store
+    from tasks.synth.record import synthesize
 
-    store = Store(folder / "store")
-    out: list[Instance] = []
-    failed = 0
-    for i, inst in enumerate(instances):
-        try:
-            rng = np.random.default_rng(seed * 7919 + i)
-            tracks = demo_tracks(inst.urdf, inst.descriptor, rng)
-            recording = write_demo(folder / f"demo-{i}.mcap", tracks)
-            rec = load_recording(store, ingest_recording(recording, store).recording_id)
-            learned = learn_descriptor(rec, LearnParams(), rng=rng).with_grasp(inst.descriptor.grasp)
-        except PbdError as err:
-            print(f"instance {i} ({inst.scene}): not learned ({err}); truth descriptor kept", file=sys.stderr)
-            failed += 1
-            learned = inst.descriptor
-        out.append(Instance(inst.scene, inst.setup, learned, inst.urdf))
-    return out, failed
-
-
-@dataclass
-class Tally:
-    """Counts and times of one column."""
-
-    runs: int = 0
-    ok: int = 0
-    sim_s: float = 0.0
-    wall_s: float = 0.0
-    loop_s: float = 0.0
-    cpu_s: float = 0.0
-
-    def add(self, result: SimulationResult | None) -> None:
-        self.runs += 1
-        if result is None:
-            return
-        self.ok += int(result.success)
-        self.sim_s += result.sim_time_s
-        self.wall_s += result.wall_time_s
-        self.loop_s += result.loop_wall_time_s
-        self.cpu_s += result.cpu_time_s
-
-    @property
-    def rate(self) -> float:
-        return self.ok / self.runs if self.runs else float("nan")
-
-
-def run_one(inst: Instance, desc: Descriptor, mode: GraspMode) -> tuple[SimulationResult | None, str]:
-    """Execute; a SimulationError (no placement, axis too far) counts as a failure with its message."""
+    t0 = time.perf_counter()
+    scene = build_scene(name, seed)
+    truth = truth_descriptor(scene)
+    learned = None
+    note = ""
     try:
-        result = execute(desc, inst.setup, grasp_mode=mode)
+        path = synthesize(name, seed, Path(folder) / f"{index:03d}-{name}-{seed}.mcap")
+        store = Store(Path(folder) / "store")
+        rec = load_recording(store, ingest_recording(path, store).recording_id)
+        learned = learn_descriptor(rec, LearnParams(), rng=np.random.default_rng(seed))
     except PbdError as err:
-        return None, str(err)
-    detail = ", ".join(f"{p.joint} {p.fraction:.0%} {p.stopped}" for p in result.primitives)
-    return result, f"{'ok' if result.success else 'FAIL'} ({detail}; contact {result.contact_fraction:.0%})"
+        note = f"not learned: {err}"
+    learn_s = time.perf_counter() - t0
+    setup = scene_setup_for(scene)
+    rng = np.random.default_rng([bench_seed, index])
+    descs = {"truth": truth, "learned": learned}
+    disturbed = {k: disturb_descriptor(d, SHIFT_M, TILT_DEG, rng) if d is not None else None for k, d in descs.items()}
+    runs = []
+    for label, which, axis, mode in COLUMNS:
+        desc = (disturbed if axis == "disturbed" else descs)[which]
+        if desc is None:
+            runs.append(Run(label, False, note))
+            continue
+        if desc.grasp is None:
+            runs.append(Run(label, False, "no grasp planned"))
+            continue
+        try:
+            res = execute(desc, setup, grasp_mode=mode)  # type: ignore[arg-type]
+        except PbdError as err:
+            runs.append(Run(label, False, str(err)))
+            continue
+        reason = "" if res.success else failure_reason(res)
+        times = (res.sim_time_s, res.wall_time_s, res.cpu_time_s, res.loop_wall_time_s, res.loop_cpu_time_s)
+        runs.append(Run(label, res.success, reason, *times))
+    chain = "+".join(p.kind[:3] for p in learned.chain) if learned is not None else "-"
+    return InstanceResult(index, name, seed, chain, tuple(runs), learn_s, note)
+
+
+def draw_instances(n: int, seed: int) -> list[tuple[int, str, int]]:
+    """``n`` (index, scene, seed) cycling through the four scenes, seeds drawn from ``default_rng(seed)``."""
+    from tasks.scenes.catalog import SCENE_NAMES
+
+    rng = np.random.default_rng(seed)
+    return [(i, SCENE_NAMES[i % len(SCENE_NAMES)], int(rng.integers(0, 2**31 - 1))) for i in range(n)]
+
+
+def _rate(runs: Iterable[Run]) -> tuple[int, int]:
+    items = list(runs)
+    return sum(r.success for r in items), len(items)
+
+
+def _pct(ok: int, n: int) -> str:
+    return f"{ok / n:6.1%} ({ok}/{n})" if n else "-"
+
+
+def report(results: list[InstanceResult], elapsed_s: float, args: argparse.Namespace) -> None:
+    """Print the table, the per-scene breakdown and the failures."""
+    by_col: dict[str, list[Run]] = defaultdict(list)
+    for res in results:
+        for run in res.runs:
+            by_col[run.column].append(run)
+    executed = [r for res in results for r in res.runs if r.wall_s > 0]
+    sim = sum(r.sim_s for r in executed)
+    wall = sum(r.wall_s for r in executed)
+    cpu = sum(r.cpu_s for r in executed)
+    loop = sum(r.loop_s for r in executed)
+    loop_cpu = sum(r.loop_cpu_s for r in executed)
+    learn = sum(res.learn_s for res in results)
+    procs = f"{args.workers} processes"
+    print(f"\nsimulate benchmark: {len(results)} instances (seed {args.seed}), {procs}, {elapsed_s:.0f} s")
+    print("descriptors learned from pbd synth demonstrations (synthesize -> ingest -> learn with grasp planning)")
+    print(f"disturbance: every axis moved {SHIFT_M * 100:.0f} cm and tilted {TILT_DEG:.0f} deg (random directions)\n")
+    rows = [
+        ("success, learned descriptor", _pct(*_rate(by_col["learned"])), _pct(*_rate(by_col["truth"])), "95%"),
+        (
+            "success, axis disturbed 2 cm / 5 deg",
+            _pct(*_rate(by_col["learned, disturbed"])),
+            _pct(*_rate(by_col["truth, disturbed"])),
+            "80%",
+        ),
+        ("success, finger friction only (no palm constraint)", _pct(*_rate(by_col["learned, friction only"])), "", ""),
+    ]
+    head = ("measure", "learned", "truth (same run)", "target")
+    widths = [max(len(row[k]) for row in [*rows, head]) for k in range(4)]
+    print(" | ".join(h.ljust(w) for h, w in zip(head, widths, strict=True)))
+    print("-+-".join("-" * w for w in widths))
+    for row in rows:
+        print(" | ".join(v.ljust(w) for v, w in zip(row, widths, strict=True)))
+    print(f"\nspeed over {len(executed)} executions, {sim:.0f} simulated seconds:")
+    print(f"  sim time / wall time, end to end (load, base placement, physics): {sim / wall:5.1f}x  (target >= 50x)")
+    print(f"  sim time / CPU time, end to end:                                  {sim / cpu:5.1f}x")
+    print(f"  sim time / wall time, physics and control loop only:              {sim / loop:5.1f}x")
+    print(f"  sim time / CPU time, physics and control loop only:               {sim / loop_cpu:5.1f}x")
+    print(f"  whole benchmark: {sim / elapsed_s:.1f} simulated s per wall s on {args.workers} processes "
+          f"(learning {learn:.0f} s of it, {learn / len(results):.1f} s per instance)")  # fmt: skip
+    print("\nper scene (success: learned | learned disturbed | truth | truth disturbed | learned friction only):")
+    for scene in sorted({res.scene for res in results}):
+        cells = [
+            _pct(*_rate(r for res in results if res.scene == scene for r in res.runs if r.column == c[0]))
+            for c in COLUMNS
+        ]
+        print(f"  {scene:<13} " + " | ".join(cells))
+    failures = [(res, r) for res in results for r in res.runs if not r.success]
+    print(f"\nfailure reasons ({len(failures)} failed executions):")
+    counts = Counter((r.column, res.scene, _reason_kind(r.reason)) for res, r in failures)
+    for (col, scene, kind), k in sorted(counts.items()):
+        print(f"  {k:3d} x {col:<22} {scene:<13} {kind}")
+    if args.verbose or len(failures) <= 40:
+        print("\nfailed executions:")
+        for res, r in failures:
+            print(f"  {res.index:3d} {res.scene:<13} seed {res.seed:<10} {res.chain:<8} {r.column:<22} {r.reason}")
+
+
+def _reason_kind(reason: str) -> str:
+    for key in ("no base placement", "did not close", "no grasp", "contact lost", "not still", "stalled", "axis is"):
+        if key in reason:
+            return {"stalled": "joint stalled short of 90%", "axis is": "axis far from every joint"}.get(key, key)
+    return "short of 90%" if "%" in reason else reason[:60]
 
 
 def main(argv: list[str] | None = None) -> int:
     """Run the benchmark and print the table."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--quick", action="store_true", help="a handful of instances")
+    parser.add_argument("--quick", action="store_true", help="8 instances")
     parser.add_argument("--instances", type=int, default=None, help="number of scene instances (default 100)")
     parser.add_argument("--seed", type=int, default=7)
-    parser.add_argument("--verbose", action="store_true", help="one line per run")
-    parser.add_argument(
-        "--truth", action="store_true", help="execute truth descriptors instead of learned ones (no learning step)"
-    )
+    parser.add_argument("--workers", type=int, default=2, help="processes (default 2)")
+    parser.add_argument("--verbose", action="store_true", help="one line per instance as it finishes")
     args = parser.parse_args(argv)
     n = args.instances or (8 if args.quick else 100)
-    rng = np.random.default_rng(args.seed)
-    import tempfile
-
+    specs = draw_instances(n, args.seed)
+    results: list[InstanceResult] = []
+    t0 = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="pbd-bench-simulate-") as tmp:
-        got = builtin_instances(n, rng)
-        instances, source = got if got is not None else procedural_instances(n, rng, Path(tmp))
-        if args.truth:
-            source += "; TRUTH descriptors (truth chain + grasp at the handle)"
-        else:
-            t_learn = time.perf_counter()
-            instances, failed = learn_instances(instances, Path(tmp), args.seed)
-            source += (
-                f"; chains LEARNED from synthetic MCAP demonstrations (ingest + learn, {failed} not learned), "
-                f"grasp = truth grasp at the handle (no object model recorded); learning took "
-                f"{time.perf_counter() - t_learn:.0f} s"
-            )
-        tallies: dict[tuple[str, str, GraspMode], Tally] = defaultdict(Tally)
-        failures: list[str] = []
-        t0 = time.perf_counter()
-        for i, inst in enumerate(instances):
-            disturbed = disturb_descriptor(
-                inst.descriptor, SHIFT_M, TILT_DEG, np.random.default_rng(args.seed * 1000 + i)
-            )
-            for cond, desc in (("nominal", inst.descriptor), ("disturbed", disturbed)):
-                for mode in ("constraint", "friction"):
-                    result, detail = run_one(inst, desc, mode)  # type: ignore[arg-type]
-                    for scene in (inst.scene, "all"):
-                        tallies[(scene, cond, mode)].add(result)  # type: ignore[index]
-                    line = f"{i:3d} {inst.scene:<14} {cond:<9} {mode:<10} {detail}"
-                    if args.verbose:
-                        print(line, flush=True)
-                    if result is None or not result.success:
-                        failures.append(line)
-        elapsed = time.perf_counter() - t0
-
-    print(f"\nsimulate benchmark: {len(instances)} instances, seed {args.seed}, {elapsed:.0f} s")
-    print(f"descriptors: {source}")
-    print(f"disturbance: every axis moved {SHIFT_M * 100:.0f} cm and tilted {TILT_DEG:.0f}° (random directions)\n")
-    a = {k: v for k, v in tallies.items() if k[0] == "all"}
-    c_nom, c_dis = a[("all", "nominal", "constraint")], a[("all", "disturbed", "constraint")]
-    f_nom, f_dis = a[("all", "nominal", "friction")], a[("all", "disturbed", "friction")]
-
-    def speed(ts: list[Tally], clock: str) -> float:
-        sim = sum(t.sim_s for t in ts)
-        wall = sum({"wall": t.wall_s, "loop": t.loop_s, "cpu": t.cpu_s}[clock] for t in ts)
-        return sim / wall if wall else float("nan")
-
-    rows = [
-        ("success rate", f"{c_nom.rate:.1%}", f"{f_nom.rate:.1%}", f"{TARGETS['success']:.0%}"),
-        ("success, axis disturbed 2 cm / 5°", f"{c_dis.rate:.1%}", f"{f_dis.rate:.1%}", f"{TARGETS['disturbed']:.0%}"),
-        (
-            "sim time / wall time, end to end",
-            f"{speed([c_nom, c_dis], 'wall'):.0f}x",
-            f"{speed([f_nom, f_dis], 'wall'):.0f}x",
-            f">= {TARGETS['speed']:.0f}x",
-        ),
-        (
-            "sim time / CPU time, end to end",
-            f"{speed([c_nom, c_dis], 'cpu'):.0f}x",
-            f"{speed([f_nom, f_dis], 'cpu'):.0f}x",
-            f">= {TARGETS['speed']:.0f}x",
-        ),
-        (
-            "sim time / wall time, physics loop only",
-            f"{speed([c_nom, c_dis], 'loop'):.0f}x",
-            f"{speed([f_nom, f_dis], 'loop'):.0f}x",
-            "",
-        ),
-    ]
-    head = ("measure", "ours: palm constraint", "baseline: friction only", "target")
-    widths = [max(len(r[k]) for r in [*rows, head]) for k in range(4)]
-    print(" | ".join(h.ljust(w) for h, w in zip(head, widths, strict=True)))
-    print("-+-".join("-" * w for w in widths))
-    for r in rows:
-        print(" | ".join(v.ljust(w) for v, w in zip(r, widths, strict=True)))
-    print("\nper scene (success nominal / disturbed; constraint | friction):")
-    for scene in sorted({k[0] for k in tallies} - {"all"}):
-        cells = [
-            tallies[(scene, cond, mode)] for mode in ("constraint", "friction") for cond in ("nominal", "disturbed")
-        ]
-        print(
-            f"  {scene:<14} n={cells[0].runs:3d}  {cells[0].rate:6.1%} / {cells[1].rate:6.1%} | "
-            f"{cells[2].rate:6.1%} / {cells[3].rate:6.1%}"
-        )
-    if failures:
-        print(f"\nfailures ({len(failures)}; first 15):")
-        for line in failures[:15]:
-            print("  " + line)
+        ctx = multiprocessing.get_context("spawn")
+        with ProcessPoolExecutor(max_workers=args.workers, mp_context=ctx) as pool:
+            futures = [pool.submit(run_instance, i, name, seed, tmp, args.seed) for i, name, seed in specs]
+            for fut in futures:
+                res = fut.result()
+                results.append(res)
+                if args.verbose:
+                    marks = " ".join(f"{r.column}={'ok' if r.success else 'FAIL'}" for r in res.runs)
+                    print(f"{res.index:3d} {res.scene:<13} {res.seed:<10} {res.chain:<8} {marks}", flush=True)
+    report(results, time.perf_counter() - t0, args)
     return 0
 
 

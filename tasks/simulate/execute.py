@@ -78,6 +78,9 @@ CLOSE_RATE_RAD_S = 2.0
 """Finger closing speed, rad/s (the BH8-280 closes in about 1 s)."""
 SQUEEZE_RAD = 0.3
 """A finger's target leads it by at most this much: stopped on the object it squeezes with its force limit."""
+HOLD_TORQUE_NM = 0.5
+"""Finger torque once the palm constraint holds the part (N·m): enough to keep touching it; squeezing a small
+cap with the full 5 N·m against the constraint made it jitter and spin back (2 rad/s after the turn)."""
 CLOSE_STALL_TICKS = 4
 CLOSE_STALL_RAD = 0.01
 """A finger that moved less than 0.01 rad over 4 control ticks (0.1 s) has stopped on the object."""
@@ -95,7 +98,8 @@ STALL_MIN_FRACTION = 0.02
 KEY_EVERY = 15
 """Every 15th waypoint (15° or 7.5 cm) is a key pose for base placement."""
 SCENE_JOINT_FRICTION_NM = 0.3
-"""Dry friction of otherwise unactuated scene joints (a velocity motor with this force limit), N·m or N."""
+"""Dry friction of scene joints (a velocity motor with this force limit), N·m or N, where the URDF gives none
+(``<dynamics friction>``, which pybullet reads but does not apply; the built-in scenes give theirs)."""
 
 GraspMode = Literal["constraint", "friction"]
 
@@ -508,8 +512,13 @@ def _execute(run: _Run, desc: Descriptor, grasp_mode: GraspMode, wall0: float) -
     run.part_links = set().union(*(_descendants(run, by_name[m.joint].index) for m in matches))
     if run.setup.set_joint_friction:
         for j in scene_joints(run.sim, run.scene, None):
+            authored = float(pb.getJointInfo(run.scene, j.index, physicsClientId=run.sim)[7])
             pb.setJointMotorControl2(
-                run.scene, j.index, pb.VELOCITY_CONTROL, force=SCENE_JOINT_FRICTION_NM, physicsClientId=run.sim
+                run.scene,
+                j.index,
+                pb.VELOCITY_CONTROL,
+                force=authored if authored > 0.0 else SCENE_JOINT_FRICTION_NM,
+                physicsClientId=run.sim,
             )
     q0 = {j.index: run.joint_value(j.index)[0] for j in joints}
     keys = key_poses(desc, matches, by_name, q0)
@@ -533,7 +542,7 @@ def _execute(run: _Run, desc: Descriptor, grasp_mode: GraspMode, wall0: float) -
     straight = rb.finger_straight_rad()
     open_finger = max(float(barrett.DOF_LOWER[1]), straight - OPEN_BEYOND_STRAIGHT_RAD)
     open_dofs = np.array([target_dofs[0], open_finger, open_finger, open_finger])
-    loop0 = time.perf_counter()
+    loop0, loop_cpu0 = time.perf_counter(), time.process_time()
     run.q = placement.q_path[0].copy()
     rb.set_arm(run.robot, run.q)
     rb.set_hand(run.robot, open_dofs)
@@ -568,6 +577,9 @@ def _execute(run: _Run, desc: Descriptor, grasp_mode: GraspMode, wall0: float) -
             on_part = [t for t in touched if t in first] or touched
             link = max(set(on_part), key=on_part.count)
         _grasp_constraint(run, link)
+        held = rb.hand_dofs(run.robot)  # the constraint holds: the fingers only rest on the part
+        held[1:] += SQUEEZE_RAD
+        rb.drive_hand(run.robot, held, max_torque_nm=HOLD_TORQUE_NM)
     elif grasp_mode == "constraint":
         notes.append("no hand-object contact after closing: no grasp constraint made")
     run.frame("grasped")
@@ -632,6 +644,7 @@ def _execute(run: _Run, desc: Descriptor, grasp_mode: GraspMode, wall0: float) -
         ),
         grasp_mode=grasp_mode,
         loop_wall_time_s=time.perf_counter() - loop0,
+        loop_cpu_time_s=time.process_time() - loop_cpu0,
         trace=JointTrace(tuple(driven), tuple(run.trace_t), tuple(run.trace_q)),
         frames=tuple(run.frames),
         notes=tuple(notes),

@@ -170,10 +170,54 @@ def reach_keys(
     return np.array(path), comfortable
 
 
+def _farthest_key_reached(robot: Robot, keys: Sequence[KeyPose], base: FloatArray, seeds: list[FloatArray]) -> bool:
+    """A cheap screen of a candidate base: does IK from some seed reach the key farthest from the shoulder?"""
+    shoulder = base + np.array([0.0, 0.0, SHOULDER_HEIGHT_M])
+    far = max(keys, key=lambda k: float(np.linalg.norm(k.position - shoulder)))
+    return any(solve_ik(robot, far.position, far.quat, seed, rounds=2, iterations=60).ok for seed in seeds)
+
+
+def _sweep(
+    robot: Robot,
+    scene_body: int,
+    keys: Sequence[KeyPose],
+    cands: list[tuple[FloatArray, FloatArray]],
+    seeds: list[FloatArray],
+    *,
+    screen: bool,
+) -> Placement | None:
+    """One pass over the candidates (``screen``: skip those failing ``_farthest_key_reached`` first)."""
+    import pybullet as pb  # noqa: PLC0415
+
+    fallback: tuple[int, Placement] | None = None
+    for tried, (base, quat) in enumerate(cands, start=1):
+        if fallback is not None and tried - fallback[0] > FALLBACK_WINDOW:
+            break
+        shoulder = base + np.array([0.0, 0.0, SHOULDER_HEIGHT_M])
+        if max(float(np.linalg.norm(k.position - shoulder)) for k in keys) > MAX_REACH_M:
+            continue
+        if not clear_of_parts(base, keys):
+            continue
+        pb.resetBasePositionAndOrientation(robot.body, base.tolist(), quat.tolist(), physicsClientId=robot.client)
+        if screen and not _farthest_key_reached(robot, keys, base, seeds):
+            continue
+        for seed in seeds:
+            found = reach_keys(robot, scene_body, keys, seed)
+            if found is None:
+                continue
+            placement = Placement(base, quat, found[0], tried)
+            if found[1]:
+                return placement
+            if fallback is None:
+                fallback = (tried, placement)
+    return fallback[1] if fallback is not None else None
+
+
 def place_base(robot: Robot, scene_body: int, keys: Sequence[KeyPose], floor_z: float = 0.0) -> Placement:
     """Sweep ``candidate_bases`` in the planning client: the first candidate whose path is comfortable (see
     ``reach_keys``) wins; failing that within ``FALLBACK_WINDOW`` candidates of the first one that merely reaches
-    every key, that one.
+    every key, that one. The first sweep skips candidates from which IK does not reach the farthest key at once;
+    if it finds nothing, a second sweep tries them all.
 
     ``SimulationError`` if none reaches (names the number of candidates and the path centre).
     """
@@ -185,31 +229,14 @@ def place_base(robot: Robot, scene_body: int, keys: Sequence[KeyPose], floor_z: 
     saved = {j: pb.getJointState(scene_body, j, physicsClientId=robot.client)[0] for k in keys for j in k.scene_joints}
     cands = candidate_bases(keys, floor_z)
     seeds = seeds_for(keys)
-    fallback: tuple[int, Placement] | None = None
     try:
-        for tried, (base, quat) in enumerate(cands, start=1):
-            if fallback is not None and tried - fallback[0] > FALLBACK_WINDOW:
-                break
-            shoulder = base + np.array([0.0, 0.0, SHOULDER_HEIGHT_M])
-            if max(float(np.linalg.norm(k.position - shoulder)) for k in keys) > MAX_REACH_M:
-                continue
-            if not clear_of_parts(base, keys):
-                continue
-            pb.resetBasePositionAndOrientation(robot.body, base.tolist(), quat.tolist(), physicsClientId=robot.client)
-            for seed in seeds:
-                found = reach_keys(robot, scene_body, keys, seed)
-                if found is None:
-                    continue
-                placement = Placement(base, quat, found[0], tried)
-                if found[1]:
-                    return placement
-                if fallback is None:
-                    fallback = (tried, placement)
+        for screen in (True, False):
+            found = _sweep(robot, scene_body, keys, cands, seeds, screen=screen)
+            if found is not None:
+                return found
     finally:
         for joint, value in saved.items():
             pb.resetJointState(scene_body, joint, value, 0.0, physicsClientId=robot.client)
-    if fallback is not None:
-        return fallback[1]
     centre = np.mean([k.position for k in keys], axis=0)
     msg = (
         f"no base placement among {len(cands)} candidates reaches the whole chain "

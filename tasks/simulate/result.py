@@ -70,10 +70,11 @@ class JointTrace:
 @dataclass(frozen=True)
 class SimulationResult:
     """A whole execution: per-primitive results, whether the grasp closed on the object, whether contact was
-        kept, overall ``success``, simulated and wall-clock seconds, base placement (world, metres, [x,y,z,w]),
-        ``grasp_mode`` ("constraint" or "friction"), the wall time of the physics loop alone (pre-grasp to the end,
-        without loading and base placement), the process CPU time of the whole execution (a shared machine's load
-    inflates wall time, not CPU time), the driven joints' trace (not in ``to_dict``), key-frame PNG paths and notes."""
+    kept, overall ``success``, simulated and wall-clock seconds, base placement (world, metres, [x,y,z,w]),
+    ``grasp_mode`` ("constraint" or "friction"), the wall and CPU time of the physics and control loop alone
+    (pre-grasp to the end, without loading and base placement), the process CPU time of the whole execution (a
+    shared machine's load inflates wall time, not CPU time), the driven joints' trace (not in ``to_dict``),
+    key-frame PNG paths and notes."""
 
     descriptor_id: str
     scene: str
@@ -88,6 +89,7 @@ class SimulationResult:
     base_quat: tuple[float, float, float, float]
     grasp_mode: Literal["constraint", "friction"]
     loop_wall_time_s: float = 0.0
+    loop_cpu_time_s: float = 0.0
     cpu_time_s: float = 0.0
     trace: JointTrace = field(default_factory=JointTrace)
     frames: tuple[str, ...] = ()
@@ -111,6 +113,7 @@ class SimulationResult:
             "sim_time_s": self.sim_time_s,
             "wall_time_s": self.wall_time_s,
             "loop_wall_time_s": self.loop_wall_time_s,
+            "loop_cpu_time_s": self.loop_cpu_time_s,
             "cpu_time_s": self.cpu_time_s,
             "real_time_factor": self.real_time_factor,
             "base": {"position": list(self.base_position), "orientation": list(self.base_quat)},

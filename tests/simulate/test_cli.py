@@ -43,6 +43,7 @@ def test_json_output_shape(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
         "sim_time_s",
         "wall_time_s",
         "loop_wall_time_s",
+        "loop_cpu_time_s",
         "cpu_time_s",
         "real_time_factor",
         "base",
