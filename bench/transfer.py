@@ -22,17 +22,28 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
+from tempfile import TemporaryDirectory
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from schemas.descriptor import Primitive
+from schemas.descriptor import Descriptor, ObjectRef, Primitive
+from tasks.errors import PbdError
+from tasks.ingest.api import ingest_recording
+from tasks.learn.api import learn_descriptor
+from tasks.learn.params import LearnParams
+from tasks.recording.load import load_recording
+from tasks.scenes.catalog import SCENE_NAMES, build_scene
+from tasks.scenes.kinematics import truth_descriptor
+from tasks.simulate.api import simulate_descriptor
+from tasks.store import Store
+from tasks.synth.record import synthesize
 from tasks.transfer import shapes
-from tasks.transfer.api import MAX_SPREAD_DEG, MAX_SPREAD_MM, SPREAD_COUNT, SPREAD_SCORE_GAP
-from tasks.transfer.carry import axis_spread
+from tasks.transfer.api import MAX_SPREAD_DEG, MAX_SPREAD_MM, SPREAD_COUNT, SPREAD_SCORE_GAP, transfer_descriptor
+from tasks.transfer.carry import axis_spread, carry_chain, carry_grasp, carry_primitive
 from tasks.transfer.registration import (
     Registration,
     RegistrationParams,
@@ -41,6 +52,7 @@ from tasks.transfer.registration import (
     plain_icp,
     register_models,
 )
+from tasks.transfer.scene_models import scene_model
 from tasks.transfer.similarity import Similarity, angle_between_deg, point_line_distance
 
 NOISE_M = 3e-4
@@ -48,6 +60,8 @@ LARGE_FACTOR = 3
 """Cabinets and drawers (0.3 to 0.6 m) get 3x the points of the small objects (9 000 per model, about 7 mm
 apart), so that their knob or handle, the only detail that breaks the box's symmetry, is sampled at all."""
 PAPER_DEG, PAPER_MM = 6.0, 4.0
+GOOD_DEG, GOOD_MM = 3.0, 3.0
+"""A pair within these (the worst-case targets) counts as good when judging the warnings."""
 
 
 @dataclass(frozen=True)
@@ -65,96 +79,190 @@ def axis_error(est: Similarity, truth_pos: np.ndarray, truth_dir: np.ndarray, mo
     return Outcome(angle_between_deg(d, truth_dir), point_line_distance(truth_pos, p, d) * 1e3)
 
 
-def make_pair(
-    rng: np.random.Generator, model: shapes.ShapeModel, n: int
-) -> tuple[np.ndarray, np.ndarray, Similarity, float, bool]:
-    """(source points, target scan, true similarity, kept fraction, view cut) from one doubly sampled model."""
-    idx = rng.permutation(len(model.points))
-    src_idx, tgt_idx = idx[: n // 2], idx[n // 2 :]
-    source = model.points[src_idx] + rng.normal(scale=NOISE_M, size=(len(src_idx), 3))
+def chain_error(est: Similarity, chain: tuple[Primitive, ...], truth: tuple[Primitive, ...]) -> Outcome:
+    """Worst direction error (deg) and worst axis position error (mm, true axis point to the carried line; NaN
+    when no primitive has an axis point) over ``chain`` carried by ``est``, against ``truth`` (target frame)."""
+    degs, mms = [], []
+    for prim, true in zip(chain, truth, strict=True):
+        moved = carry_primitive(prim, est)
+        degs.append(angle_between_deg(np.array(moved.dir), np.array(true.dir)))
+        if moved.pos is not None and true.pos is not None:
+            mms.append(point_line_distance(np.array(true.pos), np.array(moved.pos), np.array(moved.dir)) * 1e3)
+    return Outcome(max(degs), max(mms) if mms else float("nan"))
+
+
+@dataclass(frozen=True)
+class Pair:
+    """One benchmark pair: source model, target scan, the true similarity between them and the chain to carry."""
+
+    label: str
+    source: np.ndarray
+    target: np.ndarray
+    truth: Similarity
+    keep: float
+    view: bool
+    chain: tuple[Primitive, ...]
+    """The axes to carry, source frame."""
+    truth_chain: tuple[Primitive, ...]
+    """The same axes on the target, target frame."""
+    focus: np.ndarray
+    grip: np.ndarray
+
+
+def _axis_primitive(pos: np.ndarray, direction: np.ndarray) -> Primitive:
+    return Primitive("rotation", (float(pos[0]), float(pos[1]), float(pos[2])), tuple(float(v) for v in direction), 1.0)  # type: ignore[arg-type]
+
+
+def partial_target(
+    rng: np.random.Generator, points: np.ndarray, normals: np.ndarray, focus: np.ndarray
+) -> tuple[np.ndarray, Similarity, float, bool]:
+    """A partial, noisy scan of ``points`` under a random similarity: (scan, similarity, kept fraction, view cut).
+
+    A scan that keeps less than 60 % of the functional part is drawn again: no registration can place a part
+    the scan does not show."""
     scale = float(rng.uniform(0.7, 1.4))
     truth = Similarity(scale, shapes.random_rotation(rng), rng.uniform(-0.5, 0.5, size=3))
     keep = float(rng.uniform(0.5, 1.0))
     view = bool(rng.integers(0, 2))
-    radius = 0.18 * bbox_diagonal(model.points)
-    full = functional_mask(model.points[tgt_idx], model.focus, radius).sum()
+    radius = 0.18 * bbox_diagonal(points)
+    full = functional_mask(points, focus, radius).sum()
     for _ in range(100):
-        pts, _ = shapes.partial_scan(model.points[tgt_idx], model.normals[tgt_idx], rng, keep, view=view)
-        if functional_mask(pts, model.focus, radius).sum() >= 0.6 * full:
+        pts, _ = shapes.partial_scan(points, normals, rng, keep, view=view)
+        if functional_mask(pts, focus, radius).sum() >= 0.6 * full:
             break
-    target = truth.apply_points(pts) + rng.normal(scale=NOISE_M, size=pts.shape)
-    return source, target, truth, keep, view
+    return truth.apply_points(pts) + rng.normal(scale=NOISE_M, size=pts.shape), truth, keep, view
 
 
-def flagged(reg: Registration, model: shapes.ShapeModel) -> bool:
-    """True when ``pbd transfer`` would warn: a poor fit, or equally good alignments disagreeing on the axis."""
-    p, d = model.axis_pos, model.axis_dir
-    prim = Primitive("rotation", (float(p[0]), float(p[1]), float(p[2])), (float(d[0]), float(d[1]), float(d[2])), 1.0)
+def shape_pair(rng: np.random.Generator, kind: str, points: int) -> Pair:
+    """A random shape sampled twice: one sampling the source, the other the target's scan."""
+    n = 2 * points * (LARGE_FACTOR if kind in {"cabinet", "drawer"} else 1)
+    model = shapes.random_shape(rng, n=n, kind=kind)
+    idx = rng.permutation(len(model.points))
+    src_idx, tgt_idx = idx[: n // 2], idx[n // 2 :]
+    source = model.points[src_idx] + rng.normal(scale=NOISE_M, size=(len(src_idx), 3))
+    target, truth, keep, view = partial_target(rng, model.points[tgt_idx], model.normals[tgt_idx], model.focus)
+    chain = (_axis_primitive(model.axis_pos, model.axis_dir),)
+    return Pair(
+        model.name, source, target, truth, keep, view, chain, carry_chain(chain, truth), model.focus, model.focus
+    )
+
+
+def scene_pair(rng: np.random.Generator, scene: str, seed_a: int, seed_b: int, points: int) -> Pair:
+    """Instance ``seed_a`` of a built-in scene as the source, instance ``seed_b`` (other sizes, placement,
+    handle or cap) as the target's scan; the true chains from the scene kinematics."""
+    a = scene_model(scene, seed_a, points, rng)
+    b = scene_model(scene, seed_b, points, rng)
+    source = a.points + rng.normal(scale=NOISE_M, size=a.points.shape)
+    target, truth, keep, view = partial_target(rng, b.points, b.normals, b.focus)
+    label = f"{scene} {seed_a}>{seed_b}"
+    return Pair(
+        label, source, target, truth, keep, view, a.truth.chain, carry_chain(b.truth.chain, truth), a.focus, a.grip
+    )
+
+
+def flagged(reg: Registration, chain: tuple[Primitive, ...]) -> bool:
+    """True when ``pbd transfer`` would warn: a poor fit, or equally good alignments disagreeing on the axes."""
     best = reg.best
     others = [a.transform for a in reg.alignments[1:SPREAD_COUNT] if a.score >= best.score - SPREAD_SCORE_GAP]
-    deg, metres = axis_spread((prim,), best.transform, others)
+    deg, metres = axis_spread(chain, best.transform, others)
     return reg.poor or deg > MAX_SPREAD_DEG or metres * 1e3 > MAX_SPREAD_MM
 
 
 def summary(rows: list[Outcome]) -> tuple[float, float, float, float]:
-    """(median deg, worst deg, median mm, worst mm)."""
+    """(median deg, worst deg, median mm, worst mm); mm over the rows that have an axis point."""
     deg = np.array([r.deg for r in rows])
-    mm = np.array([r.mm for r in rows])
+    mm = np.array([r.mm for r in rows if np.isfinite(r.mm)] or [np.nan])
     return float(np.median(deg)), float(deg.max()), float(np.median(mm)), float(mm.max())
 
 
-def run_pairs(n_pairs: int, seed: int, points: int, only: int | None = None) -> None:
-    """The random-pair benchmark (pair i draws from its own generator seeded (seed, i))."""
-    ours: list[Outcome] = []
-    icp: list[Outcome] = []
-    icp_true: list[Outcome] = []
-    poor_flags: list[bool] = []
-    spent = 0.0
-    kinds = ("bottle", "jar", "cabinet", "drawer", "mug")
-    print(
-        f"{'#':>3} {'shape':8} {'scale':>5} {'keep':>4} {'cut':4} | {'ours deg':>8} {'mm':>6} {'fit':>4} | "
-        f"{'ICP deg':>8} {'mm':>7} | {'ICP@true deg':>12} {'mm':>6} | {'s':>4}"
-    )
-    for i in range(n_pairs) if only is None else [only]:
-        rng = np.random.default_rng([seed, i])
-        kind = kinds[i % len(kinds)]
-        n = 2 * points * (LARGE_FACTOR if kind in {"cabinet", "drawer"} else 1)
-        model = shapes.random_shape(rng, n=n, kind=kind)
-        source, target, truth, keep, view = make_pair(rng, model, n)
-        t_pos, t_dir = truth.apply_point(model.axis_pos), truth.apply_direction(model.axis_dir)
+@dataclass
+class Results:
+    """Per-pair outcomes of one benchmark set."""
+
+    ours: list[Outcome]
+    icp: list[Outcome]
+    icp_true: list[Outcome]
+    warned: list[bool]
+    good: list[bool]
+    cpu_s: float = 0.0
+
+
+def run_set(pairs: list[tuple[int, Pair]]) -> Results:
+    """Register every pair (ours, plain ICP, rigid ICP from the true pose); one printed row per pair."""
+    res = Results([], [], [], [], [])
+    for i, pair in pairs:
         t0 = time.process_time()
-        reg = register_models(source, target, focus=model.focus, params=RegistrationParams(), rng=rng)
-        spent += time.process_time() - t0
-        ours.append(axis_error(reg.best.transform, t_pos, t_dir, model))
-        poor_flags.append(flagged(reg, model))
-        icp.append(axis_error(plain_icp(source, target), t_pos, t_dir, model))
-        rigid_true = Similarity(1.0, truth.rotation, truth.translation)
-        icp_true.append(
-            axis_error(plain_icp(rigid_true.apply_points(source), target).compose(rigid_true), t_pos, t_dir, model)
-        )
+        reg = register_models(pair.source, pair.target, focus=pair.focus, grip=pair.grip, rng=np.random.default_rng(i))
+        res.cpu_s += time.process_time() - t0
+        res.ours.append(chain_error(reg.best.transform, pair.chain, pair.truth_chain))
+        res.warned.append(flagged(reg, pair.chain))
+        res.good.append(res.ours[-1].deg <= GOOD_DEG and not res.ours[-1].mm > GOOD_MM)
+        res.icp.append(chain_error(plain_icp(pair.source, pair.target), pair.chain, pair.truth_chain))
+        rigid_true = Similarity(1.0, pair.truth.rotation, pair.truth.translation)
+        from_true = plain_icp(rigid_true.apply_points(pair.source), pair.target).compose(rigid_true)
+        res.icp_true.append(chain_error(from_true, pair.chain, pair.truth_chain))
+        o, c, t = res.ours[-1], res.icp[-1], res.icp_true[-1]
         print(
-            f"{i:3d} {model.name:8} {truth.scale:5.2f} {keep:4.2f} {'view' if view else 'cut':4} | "
-            f"{ours[-1].deg:8.2f} {ours[-1].mm:6.2f} {reg.best.fitness:4.2f} | {icp[-1].deg:8.1f} {icp[-1].mm:7.1f} | "
-            f"{icp_true[-1].deg:12.2f} {icp_true[-1].mm:6.2f} | {time.process_time() - t0:4.1f}"
-            f"{'  WARNED' if poor_flags[-1] else ''}",
+            f"{i:3d} {pair.label:22} {pair.truth.scale:5.2f} {pair.keep:4.2f} {'view' if pair.view else 'cut':4} | "
+            f"{o.deg:8.2f} {o.mm:7.2f} {reg.best.fitness:4.2f} | {c.deg:8.1f} {c.mm:7.1f} | "
+            f"{t.deg:12.2f} {t.mm:6.2f} | "
+            f"{time.process_time() - t0:4.1f}{'  WARNED' if res.warned[-1] else ''}",
             flush=True,
         )
-    print()
+    return res
+
+
+def print_summary(title: str, res: Results) -> None:
+    """Median and worst errors of ours and the baselines, and how the warnings fall."""
+    n = len(res.ours)
+    warned_good = sum(w and g for w, g in zip(res.warned, res.good, strict=True))
+    missed_bad = sum(not w and not g for w, g in zip(res.warned, res.good, strict=True))
     print(
-        f"random pairs: {len(ours)} (seed {seed}), CPU {spent / len(ours):.1f} s per registration; warned "
-        f"(poor fit, or axis spread > {MAX_SPREAD_DEG:g} deg / {MAX_SPREAD_MM:g} mm): {sum(poor_flags)}"
+        f"\n{title}: {n} pairs, CPU {res.cpu_s / max(n, 1):.1f} s per registration; warned {sum(res.warned)} "
+        f"({warned_good} of them within {GOOD_DEG:g} deg / {GOOD_MM:g} mm), unwarned beyond that: {missed_bad}"
     )
     print(f"{'method':38} {'median deg':>10} {'worst deg':>10} {'median mm':>10} {'worst mm':>10}")
-    trusted = [o for o, f in zip(ours, poor_flags, strict=True) if not f]
+    trusted = [o for o, w in zip(res.ours, res.warned, strict=True) if not w]
     for label, rows in (
-        ("ours (similarity, functional part)", ours),
-        ("ours, pairs without a warning", trusted or ours),
-        ("plain ICP from identity (paper)", icp),
-        ("rigid ICP from the true pose, no scale", icp_true),
+        ("ours (similarity, functional part)", res.ours),
+        ("ours, pairs without a warning", trusted or res.ours),
+        ("plain ICP from identity (paper)", res.icp),
+        ("rigid ICP from the true pose, no scale", res.icp_true),
     ):
         med_d, max_d, med_m, max_m = summary(rows)
         print(f"{label:38} {med_d:10.2f} {max_d:10.2f} {med_m:10.2f} {max_m:10.2f}")
     print(f"{'target':38} {'< 1':>10} {'< 3':>10} {'< 1':>10} {'< 3':>10}")
+
+
+def run_pairs(n_pairs: int, n_scene: int, seed: int, points: int, only: int | None = None) -> None:
+    """Random shape pairs (pair i from generator (seed, i)) and built-in scene pairs (instances 2k and 2k+1 of
+    each scene, offset by ``seed``), then the summaries of both and of all pairs together."""
+    print(
+        f"{'#':>3} {'pair':22} {'scale':>5} {'keep':>4} {'cut':4} | {'ours deg':>8} {'mm':>7} {'fit':>4} | "
+        f"{'ICP deg':>8} {'mm':>7} | {'ICP@true deg':>12} {'mm':>6} | {'s':>4}"
+    )
+    kinds = shapes.SHAPE_KINDS
+    shape_rows = [(i, shape_pair(np.random.default_rng([seed, i]), kinds[i % len(kinds)], points))
+                  for i in (range(n_pairs) if only is None else [only])]  # fmt: skip
+    shape_res = run_set(shape_rows)
+    scene_rows = []
+    for k in range(n_scene):
+        for j, scene in enumerate(SCENE_NAMES):
+            i = 100 + k * len(SCENE_NAMES) + j
+            if only is None or only == i:
+                rng = np.random.default_rng([seed, i])
+                scene_rows.append((i, scene_pair(rng, scene, 1000 * seed + 2 * k, 1000 * seed + 2 * k + 1, 3 * points)))
+    scene_res = run_set(scene_rows) if scene_rows else None
+    if shape_rows:
+        print_summary(f"random shapes (seed {seed})", shape_res)
+    if scene_res is not None:
+        print_summary("built-in scenes, instance A -> instance B", scene_res)
+        if shape_rows:
+            both = Results(
+                *(getattr(shape_res, f) + getattr(scene_res, f) for f in ("ours", "icp", "icp_true", "warned", "good"))
+            )
+            both.cpu_s = shape_res.cpu_s + scene_res.cpu_s
+            print_summary("all pairs", both)
 
 
 def run_bottles(trials: int, seed: int, points: int, only: int | None = None) -> None:
@@ -191,9 +299,9 @@ def run_bottles(trials: int, seed: int, points: int, only: int | None = None) ->
         pts, _ = shapes.partial_scan(b.points, b.normals, rng, keep, view=True)
         target = truth.apply_points(pts) + rng.normal(scale=NOISE_M, size=pts.shape)
         t_pos, t_dir = truth.apply_point(b.axis_pos), truth.apply_direction(b.axis_dir)
-        reg = register_models(source, target, focus=a.focus, params=RegistrationParams(), rng=rng)
+        reg = register_models(source, target, focus=a.focus, grip=a.focus, rng=rng)
         ours.append(axis_error(reg.best.transform, t_pos, t_dir, a))
-        warned += flagged(reg, a)
+        warned += flagged(reg, (_axis_primitive(a.axis_pos, a.axis_dir),))
         reg_w = register_models(source, target, focus=a.focus, params=RegistrationParams(whole=True), rng=rng)
         whole.append(axis_error(reg_w.best.transform, t_pos, t_dir, a))
         icp.append(axis_error(plain_icp(source, target), t_pos, t_dir, a))
@@ -213,55 +321,93 @@ def run_bottles(trials: int, seed: int, points: int, only: int | None = None) ->
     print(f"{'paper (ICP, Dang & Allen)':38} {PAPER_DEG:10.2f} {'':>10} {PAPER_MM:10.2f}")
 
 
-def run_simulation(seed: int) -> None:
-    """The closing check of issue 6: a cap-twist descriptor of bottle A, transferred to bottle B (other place,
-    height and cap), executes in pybullet on B; the untransferred one does not fit B."""
-    from dataclasses import replace
-    from tempfile import TemporaryDirectory
+@dataclass(frozen=True)
+class SimOutcome:
+    """One recorded transfer A -> B executed in instance B: axis errors against B's truth and three executions."""
 
-    from schemas.descriptor import ObjectRef
-    from tasks.errors import PbdError
-    from tasks.simulate.api import simulate_descriptor
-    from tasks.simulate.objects import CapSpec, write_urdf
-    from tasks.transfer.api import transfer_descriptor
+    error: Outcome
+    scale: float
+    warned: bool
+    ours: str
+    icp: str
+    untransferred: str
+    own: str
+    """The learned descriptor executed in its own instance A (what the transfer can at best keep)."""
 
-    def model(spec: CapSpec, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-        body_h = spec.top_z - 0.03
-        parts = [
-            shapes.disk(0.045, 0.0, False),
-            shapes.cylinder_side(0.045, 0.0, body_h),
-            shapes.disk(0.045, body_h, True, spec.cap_radius),
-            shapes.cylinder_side(spec.cap_radius, body_h, spec.top_z),
-            shapes.disk(spec.cap_radius, spec.top_z, True),
-        ]
-        pts, nrm = shapes.sample_parts(parts, 5000, rng)
-        return pts + np.array([spec.x, spec.y, 0.0]), nrm
 
-    rng = np.random.default_rng([seed, 2000])
-    spec_a, spec_b = CapSpec(), CapSpec(x=0.12, y=-0.08, top_z=0.36, cap_radius=0.024)
-    points_a, _ = model(spec_a, rng)
-    points_b, normals_b = model(spec_b, rng)
-    scan_b, _ = shapes.partial_scan(points_b, normals_b, rng, 0.7, view=True)
-    scan_b = scan_b + rng.normal(scale=NOISE_M, size=scan_b.shape)
-    source = replace(spec_a.descriptor(), object=ObjectRef("bottle-a", "a" * 64, len(points_a)))
-    result = transfer_descriptor(source, points_a, scan_b, ObjectRef("bottle-b", "b" * 64, len(scan_b)), rng=rng)
-    axis = result.descriptor.chain[0]
-    truth = spec_b.descriptor().chain[0]
-    deg = angle_between_deg(np.array(axis.dir), np.array(truth.dir))
-    mm = point_line_distance(np.array(truth.pos), np.array(axis.pos), np.array(axis.dir)) * 1e3
-    print()
-    print(
-        f"simulation: bottle A (cap r 28 mm, top 0.30 m) -> bottle B (cap r 24 mm, top 0.36 m, moved 14 cm), "
-        f"70 % scan: axis error {deg:.2f} deg, {mm:.2f} mm, scale {result.registration.best.transform.scale:.3f}"
+def _execute(desc: Descriptor, scene: str, seed: int) -> str:
+    """``success`` or why not: the descriptor executed in instance ``seed`` of ``scene``."""
+    try:
+        result = simulate_descriptor(desc, scene=scene, rng=np.random.default_rng(seed))
+    except PbdError as err:
+        return f"refused: {str(err)[:60]}"
+    return "success" if result.success else f"failed: {'; '.join(result.notes)[:60] or 'extent not reached'}"
+
+
+def simulate_pair(scene: str, seed_a: int, seed_b: int, work: Path) -> SimOutcome:
+    """Issue 6's done-criterion for one pair: ``pbd synth`` instances A and B, learn A, transfer to B's recorded
+    object model (as ``pbd transfer D --to B.mcap``), execute in instance B; the paper's plain-ICP transfer and
+    the untransferred descriptor executed there too."""
+    store = Store(work / "store")
+    recs = []
+    for s in (seed_a, seed_b):
+        path = work / f"{scene}-{s}.mcap"
+        if not path.exists():
+            synthesize(scene, s, path)
+        recs.append(load_recording(store, ingest_recording(path, store).recording_id))
+    source = learn_descriptor(recs[0], LearnParams(), rng=np.random.default_rng(seed_a))
+    src_pts = np.asarray(recs[0].object_model, dtype=np.float64)
+    tgt_pts = np.asarray(recs[1].object_model, dtype=np.float64)
+    target = ObjectRef(scene, None, len(tgt_pts))
+    result = transfer_descriptor(source, src_pts, tgt_pts, target, rng=np.random.default_rng(seed_b))
+    truth = truth_descriptor(build_scene(scene, seed_b)).chain
+    moved = result.descriptor.chain
+    same = [p.kind for p in moved] == [t.kind for t in truth]
+    error = chain_error(Similarity.identity(), moved, truth) if same else Outcome(float("inf"), float("inf"))
+    icp = plain_icp(src_pts, tgt_pts)
+    grasp = carry_grasp(source.grasp, icp) if source.grasp is not None else None
+    by_icp = replace(result.descriptor, chain=carry_chain(source.chain, icp), grasp=grasp)
+    return SimOutcome(
+        error,
+        result.registration.best.transform.scale,
+        result.poor,
+        _execute(result.descriptor, scene, seed_b),
+        _execute(by_icp, scene, seed_b),
+        _execute(source, scene, seed_b),
+        _execute(source, scene, seed_a),
     )
+
+
+def run_simulation(n_pairs: int, seed: int, scene: str = "bottle") -> None:
+    """Pairs (A, B) = (seed + 2k, seed + 2k + 1) of ``scene``: transfer the learned descriptor and execute it."""
+    print(
+        f"{'A':>4} {'B':>4} | {'deg':>5} {'mm':>6} {'scale':>5} | {'ours on B':28} | {'plain ICP on B':28} | "
+        f"{'untransferred on B':20} | learned, on A"
+    )
+    rows: list[SimOutcome] = []
     with TemporaryDirectory() as tmp:
-        urdf_b = write_urdf(spec_b.urdf(), Path(tmp), "bottle_b")
-        for label, desc in (("transferred descriptor on B", result.descriptor), ("source descriptor on B", source)):
-            try:
-                outcome = simulate_descriptor(desc, urdf=urdf_b)
-                print(f"  {label}: success {outcome.success}")
-            except PbdError as err:
-                print(f"  {label}: refused ({err})")
+        for k in range(n_pairs):
+            a, b = seed + 2 * k, seed + 2 * k + 1
+            row = simulate_pair(scene, a, b, Path(tmp))
+            rows.append(row)
+            print(
+                f"{a:4d} {b:4d} | {row.error.deg:5.2f} {row.error.mm:6.2f} {row.scale:5.3f} | {row.ours[:28]:28} | "
+                f"{row.icp[:28]:28} | {row.untransferred[:20]:20} | {row.own[:40]}{'  WARNED' if row.warned else ''}",
+                flush=True,
+            )
+    med_d, max_d, med_m, max_m = summary([r.error for r in rows])
+    print(
+        f"\n{scene} A -> B (pbd synth instances, learned from A's recording, transferred to B's recorded model, "
+        f"executed in instance B): axis {med_d:.2f} deg / {med_m:.2f} mm median, {max_d:.2f} / {max_m:.2f} worst"
+    )
+    for label, key, where in (
+        ("ours", "ours", "B"),
+        ("plain ICP (paper)", "icp", "B"),
+        ("untransferred", "untransferred", "B"),
+        ("learned descriptor", "own", "A (its own instance)"),
+    ):
+        wins = sum(getattr(r, key) == "success" for r in rows)
+        print(f"  {label:18} executes on {where}: {wins}/{len(rows)}")
 
 
 def main() -> None:
@@ -271,13 +417,16 @@ def main() -> None:
     parser.add_argument("--pairs", type=int, default=None)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--only", type=int, default=None, help="run pair (and bottle pose) number N only")
-    parser.add_argument("--simulate", action="store_true", help="only the pybullet check on a novel bottle")
+    parser.add_argument("--scene-pairs", type=int, default=None, help="pairs per built-in scene (default 5)")
+    parser.add_argument("--simulate", action="store_true", help="only the recorded bottle A -> B pairs in pybullet")
+    parser.add_argument("--scene", default="bottle", help="scene of --simulate (default bottle)")
     args = parser.parse_args()
     if args.simulate:
-        run_simulation(args.seed)
+        run_simulation(args.pairs or (3 if args.quick else 10), args.seed, args.scene)
         return
-    pairs = args.pairs or (10 if args.quick else 40)
-    run_pairs(pairs, args.seed, 3000, args.only)
+    pairs = args.pairs if args.pairs is not None else (10 if args.quick else 40)
+    scene_pairs = args.scene_pairs if args.scene_pairs is not None else (1 if args.quick else 5)
+    run_pairs(pairs, scene_pairs, args.seed, 3000, args.only)
     run_bottles(3 if args.quick else 10, args.seed, 5000, args.only)
 
 

@@ -8,7 +8,7 @@ from flows.caching import on_store
 from flows.summary import RunSummary, summarise
 from tasks.diff.task import diff_task
 from tasks.learn.task import store_descriptor_task
-from tasks.report.refs import EntryResult
+from tasks.report.refs import EntryResult, RecordingRef
 from tasks.report.task import report_task
 from tasks.simulate.task import simulate_task
 from tasks.store import resolve_store_root
@@ -29,7 +29,8 @@ def transfer_descriptor_flow(
     seed: int = 0,
     report: bool = True,
 ) -> RunSummary:
-    """Carry ``descriptor`` (path, id or ``name@vN``) to the model ``to`` (model file, recording or its id)."""
+    """Carry ``descriptor`` (path, id or ``name@vN``) to the model ``to`` (model file, recording or its id) and
+    simulate it: in the scene instance a recording's meta names, else on the built-in scene named like the object."""
     root = str(resolve_store_root(store).resolve())
     source = resolve_descriptor_task(root, descriptor)
     target = target_model_task(root, to, seed=seed)
@@ -38,7 +39,10 @@ def transfer_descriptor_flow(
         replan_grasp=replan_grasp, seed=seed,
     )  # fmt: skip
     stored = store_descriptor_task(root, carried)
-    simulated = on_store(simulate_task, root)(root, stored)
+    # a recording's world frame is its own: the carried descriptor runs in the scene instance its meta names
+    # (a pbd synth recording), and is not run on a nominal scene it was never placed in
+    recording = RecordingRef(target.recording_id, to) if target.recording_id else None
+    simulated = on_store(simulate_task, root)(root, stored, recording=recording)
     diff = on_store(diff_task, root)(root, stored)
     chain = " → ".join(p.kind for p in carried.chain) or "(empty)"
     entry = EntryResult(

@@ -17,7 +17,7 @@ from schemas.descriptor import Descriptor, Grasp, ObjectRef
 from tasks.arrays import Points
 from tasks.code_version import code_version
 from tasks.errors import GraspError, TransferError
-from tasks.transfer.carry import axis_spread, carry_chain, carry_grasp, focus_points, grip_points
+from tasks.transfer.carry import axis_spread, carry_chain, carry_grasp, focus_points, grip_points, keep_standoff
 from tasks.transfer.registration import Registration, RegistrationParams, check_model, register_models
 from tasks.transfer.similarity import Similarity
 
@@ -27,6 +27,8 @@ SPREAD_SCORE_GAP = 0.05
 """Alignments scoring within this of the best count as equally plausible for the axis spread."""
 SPREAD_COUNT = 5
 """At most this many best alignments (the best included) enter the axis spread."""
+STANDOFF_RAY_SPACINGS = 3.0
+"""The palm's approach ray meets the surface at points within 3 median point spacings of it."""
 MAX_SPREAD_DEG = 5.0
 MAX_SPREAD_MM = 5.0
 """A larger axis spread makes the registration poor: the data do not single out one alignment."""
@@ -106,8 +108,10 @@ def transfer_descriptor(
         msg = "; ".join(w for w in warnings if w.startswith("poor")) + " (--strict)"
         raise TransferError(msg)
 
-    anchor = grip[0] if len(grip) else None
-    grasp = carry_grasp(desc.grasp, best, anchor) if desc.grasp is not None else None
+    grasp = None
+    if desc.grasp is not None:
+        grasp = carry_grasp(desc.grasp, best, grip[0] if len(grip) else None)
+        grasp = keep_standoff(grasp, desc.grasp, source, target, STANDOFF_RAY_SPACINGS * reg.spacing_m)
     if replan_grasp:
         if grasp is None:
             warnings.append("no grasp to re-plan: the source descriptor has none")

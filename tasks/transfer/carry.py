@@ -98,6 +98,33 @@ def focus_points(desc: Descriptor, model: Points) -> Points:
     return np.array(out, dtype=np.float64)
 
 
+def standoff_m(wrist: Vector3, approach: Vector3, model: Points, radius_m: float) -> float | None:
+    """Distance (metres) from the palm at ``wrist`` along its unit ``approach`` to the first model surface point
+    within ``radius_m`` of that ray; None when the ray meets no surface."""
+    rel = model - wrist
+    along = rel @ approach
+    lateral = np.linalg.norm(rel - along[:, None] * approach, axis=1)
+    hit = (along > 0.0) & (lateral <= radius_m)
+    return float(along[hit].min()) if hit.any() else None
+
+
+def keep_standoff(grasp: Grasp, source_grasp: Grasp, source: Points, target: Points, radius_m: float) -> Grasp:
+    """The carried ``grasp`` moved along its approach so the palm stands off the target's surface it faces as
+    far as the source palm stood off the source's (metres): the hand keeps its size when the object does not
+    scale uniformly (a taller cap, a thicker handle). Unchanged when either ray meets no surface."""
+
+    def approach(g: Grasp) -> Vector3:
+        out: Vector3 = matrix_from_quat(g.wrist_orientation)[:, 2]  # Barrett palm frame: +z is the approach
+        return out
+
+    before = standoff_m(np.asarray(source_grasp.wrist_position), approach(source_grasp), source, radius_m)
+    wrist, towards = np.asarray(grasp.wrist_position), approach(grasp)
+    after = standoff_m(wrist, towards, target, radius_m)
+    if before is None or after is None:
+        return grasp
+    return replace(grasp, wrist_position=_vec3(wrist + (after - before) * towards))
+
+
 def grip_points(desc: Descriptor, model: Points) -> Points:
     """The grasped part's centre on the source model: the model point nearest the wrist position (metres,
     source frame), (1, 3); (0, 3) when the descriptor has no grasp."""

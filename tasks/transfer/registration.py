@@ -117,6 +117,8 @@ class Registration:
     threshold_m: float
     """Final correspondence threshold, metres (target frame)."""
     fine_voxel_m: float
+    spacing_m: float
+    """Median nearest-neighbour spacing of the target's points, metres."""
     crop_radius_m: float | None
     """Radius of the functional region used, metres (source frame); None when the whole model was used."""
     source_points_used: int
@@ -482,6 +484,7 @@ def register_models(
         alignments=tuple(alignments),
         threshold_m=threshold,
         fine_voxel_m=fine_voxel,
+        spacing_m=spacing,
         crop_radius_m=crop_radius,
         source_points_used=int(used.shape[0]),
         poor=poor,

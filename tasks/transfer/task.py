@@ -38,6 +38,8 @@ class ModelRef:
     path: str
     object_name: str
     label: str
+    recording_id: str | None = None
+    """The ingested recording the model came from (its meta may name a built-in scene instance), else None."""
 
 
 def _label(text: str) -> str:
@@ -66,14 +68,16 @@ def resolve_descriptor_task(store_root: str, ref: str) -> DescriptorRef:
 def target_model_task(store_root: str, model: str, seed: int = 0) -> ModelRef:
     """Store the target model (a model file, or the object model of a recording) by its sha256."""
     store = Store(store_root)
+    recording_id = None
     if is_recording_ref(store, model):
         points, label, object_name = read_recording_model(store, model)
+        recording_id = label
     else:
         path = Path(model)
         points = read_model_file(path, seed=seed)
         label, object_name = str(path), _label(path.stem)
     sha, stored = store.put_model(points)
-    return ModelRef(sha, len(points), str(stored), object_name, label)
+    return ModelRef(sha, len(points), str(stored), object_name, label, recording_id)
 
 
 def transfer_cache_key(context: TaskRunContext, parameters: dict[str, Any]) -> str:

@@ -8,7 +8,9 @@ import numpy as np
 
 from flows.transfer_descriptor import transfer_descriptor_flow
 from schemas.descriptor import Descriptor, ObjectRef, Primitive
+from tasks.cli import main
 from tasks.store import Store
+from tasks.synth.record import synthesize
 
 HINGE = np.array([0.5, 0.0, 1.0])
 
@@ -46,3 +48,23 @@ def test_transfer_carries_the_axis_and_records_the_parent(prefect_harness: None,
     np.testing.assert_allclose(np.abs(carried.chain[0].dir), [0.0, 0.0, 1.0], atol=0.01)
     assert entry["simulation_skipped"] is not None or entry["simulation_success"] is not None
     assert summary["report"] is not None and Path(summary["report"]).is_file()
+
+
+def test_transfer_to_a_synth_recording_simulates_in_the_instance_it_names(
+    prefect_harness: None, tmp_path: Path
+) -> None:
+    """A descriptor learned on bottle instance 4, carried to the sample recording (bottle instance 1, whose meta
+    names scene and seed), is executed in instance 1, not in the nominal bottle."""
+    store = Store(tmp_path / "store")
+    rec_a = synthesize("bottle", 4, tmp_path / "bottle-4.mcap")
+    assert main(["learn", str(rec_a), "--store", str(store.root), "--name", "unscrew-4"]) == 0
+    target = Path(__file__).resolve().parents[2] / "data" / "recordings" / "bottle.mcap"
+
+    summary = transfer_descriptor_flow("unscrew-4@v1", str(target), store=str(store.root), report=False)
+
+    (entry,) = summary["entries"]
+    assert entry["descriptor"] == "unscrew-4-to-bottle@v1"
+    assert entry["simulation_skipped"] is None
+    assert entry["simulation_success"] is True
+    carried = store.load("unscrew-4-to-bottle@v1")
+    assert (store.root / "simulations" / f"{carried.id[:16]}-bottle-s1.npz").is_file()  # instance 1's trace
