@@ -62,3 +62,14 @@ def test_learning_recovers_every_sample_chain(samples: list[Path], tmp_path: Pat
             # the learned span lies inside the true motion (a slow start may read as still, never the reverse)
             assert err.t_start_s is not None and err.t_start_s > -0.3, (path.name, err)
             assert err.t_end_s is not None and err.t_end_s < 0.3, (path.name, err)
+
+
+def test_committed_samples_are_what_synth_makes_now(samples: list[Path]) -> None:
+    """``data/recordings`` holds the demo's samples; a scene or synth change must come with them re-made
+    (``rm data/recordings/* && .venv/bin/pbd demo``), or the demo would run on stale recordings."""
+    committed = Path(__file__).resolve().parents[2] / "data" / "recordings"
+    for path in samples:
+        kept = committed / path.name
+        assert kept.is_file(), f"{kept} is missing"
+        assert kept.read_bytes() == path.read_bytes(), f"{kept} is stale: re-make the sample recordings"
+        assert truth_path(kept).read_text() == truth_path(path).read_text(), f"{truth_path(kept)} is stale"
