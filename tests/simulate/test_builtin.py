@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -53,3 +54,22 @@ def test_descriptor_learned_from_a_synthesised_demonstration_executes_in_its_ins
     result = execute(learned, scene_setup_for(build_scene("sliding-door", seed)))
     assert result.success, result.to_dict()
     assert result.sim_time_s > 2.0 and result.loop_cpu_time_s > 0.0
+
+
+def test_wide_cap_gets_a_wider_pre_grasp() -> None:
+    # cap radius 27.6 mm: with the default opening the fingertips landed on its rim and two slid off outside it
+    scene = build_scene("bottle", 13)
+    result = execute(truth_descriptor(scene), scene_setup_for(scene))
+    assert result.success and result.grasped, result.to_dict()
+
+
+def test_no_palm_constraint_when_the_hand_closes_on_air() -> None:
+    scene = build_scene("bottle", None)
+    truth = truth_descriptor(scene)
+    assert truth.grasp is not None
+    up = np.array(truth.grasp.wrist_position) + np.array([0.0, 0.0, 0.06])  # the palm looks down at the cap
+    high = replace(truth, grasp=replace(truth.grasp, wrist_position=(float(up[0]), float(up[1]), float(up[2]))))
+    result = execute(high, scene_setup_for(scene))
+    assert not result.success and not result.grasped
+    assert any("does not touch the grasp link cap" in note for note in result.notes)
+    assert abs(result.primitives[0].achieved) < 0.2  # the cap was not dragged round by a constraint

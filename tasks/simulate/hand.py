@@ -1,0 +1,145 @@
+"""The Barrett hand in execution: the open pre-grasp, closing finger by finger until blocked, and the palm
+constraint of the ``"constraint"`` grasp mode."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tasks.arrays import FloatArray
+from tasks.grasp import barrett
+from tasks.simulate import robot as rb
+from tasks.simulate.session import STEPS_PER_WAYPOINT, TIME_STEP_S, Session, link_index
+
+CLOSE_EXTRA_RAD = 0.5
+"""The fingers are driven this far past the grasp's DOFs, so they squeeze when they stop on the object."""
+OPEN_BEYOND_STRAIGHT_RAD = 0.3
+"""Pre-grasp: fingers opened this far past pointing along the approach (where the hand's joint range allows) ..."""
+WIDER_OPENINGS_RAD: tuple[float, ...] = (0.25, 0.5, 0.75)
+"""... or this much further when a finger would touch the scene at the grasp pose ..."""
+PREGRASP_CLEARANCE_M = 0.003
+"""... closer than this."""
+CLOSE_RATE_RAD_S = 2.0
+"""Finger closing speed, rad/s (the BH8-280 closes in about 1 s)."""
+SQUEEZE_RAD = 0.3
+"""A finger's target leads it by at most this much: stopped on the object it squeezes with its force limit."""
+HOLD_TORQUE_NM = 0.5
+"""Finger torque once the palm constraint holds the part (N·m): enough to keep touching it; squeezing a small
+cap with the full 5 N·m against the constraint made it jitter and spin back (2 rad/s after the turn)."""
+CLOSE_STALL_TICKS = 4
+CLOSE_STALL_RAD = 0.01
+"""A finger that moved less than 0.01 rad over 4 control ticks (0.1 s) has stopped on the object."""
+CLOSE_SETTLE_S = 0.15
+"""Simulated seconds for the fingers to settle on the object once every finger has stopped."""
+CLOSE_MAX_S = 2.0
+
+
+def pregrasp_opening(planner: rb.Robot, scene_body: int, q_grasp: FloatArray, spread_rad: float) -> FloatArray:
+    """(4,) DOFs of the open hand to approach with: the fingers ``OPEN_BEYOND_STRAIGHT_RAD`` past pointing along
+    the approach, or opened further (``WIDER_OPENINGS_RAD``) when at the grasp pose (arm at ``q_grasp`` in the
+    planning client) a finger would already touch the scene there (a wide cap: the fingertips land on its rim
+    and slide off outside it), unless no opening is clear."""
+    import pybullet as pb  # noqa: PLC0415
+
+    straight = rb.finger_straight_rad()
+    openings = [straight - OPEN_BEYOND_STRAIGHT_RAD - extra for extra in (0.0, *WIDER_OPENINGS_RAD)]
+    saved = rb.arm_angles(planner)
+    rb.set_arm(planner, q_grasp)
+    fingers = [link for pair in rb.FINGER_LINKS for link in pair]
+    chosen = openings[0]
+    for opening in openings:
+        if opening < float(barrett.DOF_LOWER[1]):
+            break
+        rb.set_hand(planner, [spread_rad, opening, opening, opening])
+        pb.performCollisionDetection(physicsClientId=planner.client)
+        clear = all(
+            not pb.getClosestPoints(
+                planner.body, scene_body, PREGRASP_CLEARANCE_M, linkIndexA=link, physicsClientId=planner.client
+            )
+            for link in fingers
+        )
+        if clear:
+            chosen = opening
+            break
+    rb.set_arm(planner, saved)
+    rb.set_hand(planner, np.zeros(4))
+    return np.array([spread_rad, chosen, chosen, chosen])
+
+
+def close_fingers(run: Session, target_dofs: FloatArray) -> None:
+    """Close the hand from its open pre-grasp towards ``target_dofs`` (4,) radians (``CLOSE_EXTRA_RAD`` further,
+    so a finger stopped by the object squeezes it) with each finger's target ramped at ``CLOSE_RATE_RAD_S`` and
+    never more than ``SQUEEZE_RAD`` ahead of the finger: a finger the object blocks stops and squeezes with its
+    force limit while the others close on (the BH8 closes finger by finger; driven at the motors' full speed a
+    fingertip passed through a small cap in one physics step). Done when every finger is at its goal or has not
+    moved for ``CLOSE_STALL_TICKS`` ticks."""
+    assert run.robot is not None
+    tick_s = STEPS_PER_WAYPOINT * TIME_STEP_S
+    goal = target_dofs.copy()
+    goal[1:] = np.minimum(goal[1:] + CLOSE_EXTRA_RAD, barrett.DOF_UPPER[1:])
+    command = rb.hand_dofs(run.robot)
+    command[0] = goal[0]
+    history = [rb.hand_dofs(run.robot)]
+    for _ in range(int(CLOSE_MAX_S / tick_s)):
+        now = history[-1]
+        command[1:] = np.minimum(np.minimum(command[1:] + CLOSE_RATE_RAD_S * tick_s, now[1:] + SQUEEZE_RAD), goal[1:])
+        rb.drive_hand(run.robot, command)
+        run.step(STEPS_PER_WAYPOINT)
+        history.append(rb.hand_dofs(run.robot))
+        if len(history) > CLOSE_STALL_TICKS:
+            moved = np.abs(history[-1][1:] - history[-1 - CLOSE_STALL_TICKS][1:])
+            if np.all((command[1:] >= goal[1:]) | (moved < CLOSE_STALL_RAD)):
+                break
+    run.step(int(CLOSE_SETTLE_S / TIME_STEP_S))
+
+
+def grasp_constraint(run: Session, link: int) -> int:
+    """A fixed constraint holding the palm to scene ``link`` in their current relative pose."""
+    pb = run.pb
+    assert run.robot is not None
+    palm = pb.getLinkState(run.robot.body, rb.PALM_LINK, physicsClientId=run.sim)
+    if link == -1:
+        child_pos, child_orn = pb.getBasePositionAndOrientation(run.scene, physicsClientId=run.sim)
+    else:
+        child = pb.getLinkState(run.scene, link, physicsClientId=run.sim)
+        child_pos, child_orn = child[0], child[1]
+    inv_pos, inv_orn = pb.invertTransform(child_pos, child_orn)
+    rel_pos, rel_orn = pb.multiplyTransforms(inv_pos, inv_orn, palm[0], palm[1])
+    cid = int(
+        pb.createConstraint(
+            run.robot.body,
+            rb.PALM_LINK,
+            run.scene,
+            link,
+            pb.JOINT_FIXED,
+            [0.0, 0.0, 0.0],
+            [0.0, 0.0, 0.0],
+            rel_pos,
+            parentFrameOrientation=[0.0, 0.0, 0.0, 1.0],
+            childFrameOrientation=rel_orn,
+            physicsClientId=run.sim,
+        )
+    )
+    pb.changeConstraint(cid, maxForce=2000.0, physicsClientId=run.sim)
+    return cid
+
+
+def attach(run: Session, grasp_link: str | None, first_part: set[int]) -> str | None:
+    """The ``"constraint"`` grasp: fix the palm to the link it holds, once the fingers have closed, and let the
+    fingers rest on it (``HOLD_TORQUE_NM``). The link is ``grasp_link`` when named, else the link of the first
+    driven part the hand touches most; no constraint (and a note why) when the hand touches no such link."""
+    assert run.robot is not None
+    touched = run.hand_contacts()
+    if grasp_link is not None:
+        link = link_index(run, grasp_link)
+        if link not in touched:
+            return f"the hand does not touch the grasp link {grasp_link} after closing: no grasp constraint made"
+    else:
+        on_part = [t for t in touched if t in first_part]
+        if not on_part:
+            return "no hand contact with the driven part after closing: no grasp constraint made"
+        link = max(set(on_part), key=on_part.count)
+    grasp_constraint(run, link)
+    rest = rb.hand_dofs(run.robot)
+    rest[1:] += SQUEEZE_RAD
+    rb.drive_hand(run.robot, rest, max_torque_nm=HOLD_TORQUE_NM)
+    return None
