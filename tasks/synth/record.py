@@ -27,6 +27,7 @@ from tasks.scenes.kinematics import load_scene, palm_pose_world, truth_chain
 from tasks.scenes.scene import Scene
 from tasks.synth.demonstrator import plan_demonstration
 from tasks.synth.paths import check_output, check_scene_name, truth_path
+from tasks.synth.scan import SCAN_POINTS, scan_object_model
 from tasks.synth.sensors import (
     NOMINAL_SENSORS,
     draw_sensor_params,
@@ -39,8 +40,8 @@ from tasks.synth.truth import META_TOPIC, MOCAP_PREFIX, OBJECT_TOPIC, WRIST_TOPI
 
 START_NS = 1_700_000_000_000_000_000
 """Stamp of the recording's first sample (2023-11-14 22:13:20 UTC), nanoseconds."""
-OBJECT_MODEL_POINTS = 2048
-"""Points of the digitised object model (the paper used a 3-D digitizer)."""
+OBJECT_MODEL_POINTS = SCAN_POINTS
+"""Points of the digitised object model (the paper used a 3-D digitizer; ``tasks.synth.scan``)."""
 
 ObjectModelFn = Callable[[Scene, int, np.random.Generator], Points]
 """``(scene, n_points, rng) -> (n, 3)`` world-frame surface samples of the scene's model links at the start."""
@@ -136,8 +137,7 @@ def synthesize(scene_name: str, seed: int | None, out_path: str | Path, fmt: str
     """Record built-in scene ``scene_name`` (randomised by ``seed``; None is the nominal instance) to
     ``out_path`` in ``fmt`` (mcap, bag, rosbag2) with ``PATH.truth.json``; ``SceneError`` for an unknown scene."""
     from tasks.scenes.catalog import SCENE_NAMES, build_scene  # noqa: PLC0415
-    from tasks.scenes.surface import sample_object_model  # noqa: PLC0415
 
     check_scene_name(scene_name, SCENE_NAMES)
     check_output(Path(out_path), fmt)
-    return record_scene(build_scene(scene_name, seed), out_path, fmt, sample_object_model)
+    return record_scene(build_scene(scene_name, seed), out_path, fmt, scan_object_model)
