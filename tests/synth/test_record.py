@@ -22,7 +22,7 @@ from tasks.scenes.kinematics import link_frames, load_scene, min_jerk, set_joint
 from tasks.scenes.scene import HAND_LINK, Scene
 from tasks.store import Store
 from tasks.synth.paths import truth_path
-from tasks.synth.record import START_NS, record_scene
+from tasks.synth.record import OBJECT_MODEL_POINTS, START_NS, record_scene
 from tests.synth.scenes import box_model, door_scene, drawer_scene
 
 
@@ -75,7 +75,7 @@ def test_every_container_round_trips_through_ingest(tmp_path: Path, fmt: str) ->
     rec = load_recording(store, result.recording_id)
     assert rec.start_ns == START_NS
     assert rec.meta == {"action": "open", "object": "drawer", "scene": "test_drawer", "seed": 2}
-    assert rec.object_model is not None and rec.object_model.shape == (2048, 3)
+    assert rec.object_model is not None and rec.object_model.shape == (OBJECT_MODEL_POINTS, 3)
     assert sorted(rec.markers) == sorted(truth["sensors"]["mocap_topics"])
     assert rec.wrist is not None and len(rec.wrist.stamps_ns) == truth["counts"]["/wrist/pose"]
 
@@ -230,7 +230,7 @@ def test_a_failing_object_model_leaves_nothing(tmp_path: Path) -> None:
     def flat(scene: Scene, n: int, rng: np.random.Generator) -> np.ndarray:
         return np.zeros((n, 2))
 
-    with pytest.raises(SceneError, match=r"object model must be finite \(n, 3\) points, got shape \(2048, 2\)"):
+    with pytest.raises(SceneError, match=r"object model must be finite \(n, 3\) points, got shape \(8192, 2\)"):
         record_scene(drawer_scene(), tmp_path / "d.mcap", "mcap", flat)
     assert list(tmp_path.iterdir()) == []
 
