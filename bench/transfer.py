@@ -107,6 +107,8 @@ class Pair:
     """The same axes on the target, target frame."""
     focus: np.ndarray
     grip: np.ndarray
+    rigid_truth: Similarity
+    """The true pose without scale (source -> target): for scene pairs, instance B's placement relative to A's."""
 
 
 def _axis_primitive(pos: np.ndarray, direction: np.ndarray) -> Primitive:
@@ -142,9 +144,9 @@ def shape_pair(rng: np.random.Generator, kind: str, points: int) -> Pair:
     source = model.points[src_idx] + rng.normal(scale=NOISE_M, size=(len(src_idx), 3))
     target, truth, keep, view = partial_target(rng, model.points[tgt_idx], model.normals[tgt_idx], model.focus)
     chain = (_axis_primitive(model.axis_pos, model.axis_dir),)
-    return Pair(
-        model.name, source, target, truth, keep, view, chain, carry_chain(chain, truth), model.focus, model.focus
-    )
+    rigid = Similarity(1.0, truth.rotation, truth.translation)
+    moved = carry_chain(chain, truth)
+    return Pair(model.name, source, target, truth, keep, view, chain, moved, model.focus, model.focus, rigid)
 
 
 def scene_pair(rng: np.random.Generator, scene: str, seed_a: int, seed_b: int, points: int) -> Pair:
@@ -155,17 +157,19 @@ def scene_pair(rng: np.random.Generator, scene: str, seed_a: int, seed_b: int, p
     source = a.points + rng.normal(scale=NOISE_M, size=a.points.shape)
     target, truth, keep, view = partial_target(rng, b.points, b.normals, b.focus)
     label = f"{scene} {seed_a}>{seed_b}"
-    return Pair(
-        label, source, target, truth, keep, view, a.truth.chain, carry_chain(b.truth.chain, truth), a.focus, a.grip
-    )
+    rigid = Similarity(1.0, truth.rotation, truth.translation).compose(b.placement.compose(a.placement.inverse()))
+    moved = carry_chain(b.truth.chain, truth)
+    return Pair(label, source, target, truth, keep, view, a.truth.chain, moved, a.focus, a.grip, rigid)
 
 
-def flagged(reg: Registration, chain: tuple[Primitive, ...]) -> bool:
-    """True when ``pbd transfer`` would warn: a poor fit, or equally good alignments disagreeing on the axes."""
+def flagged(reg: Registration, chain: tuple[Primitive, ...]) -> str:
+    """Why ``pbd transfer`` would warn ("" when it would not): ``fit`` (a poor fit: fitness, surface RMSE or
+    two-way score) and/or ``spread`` (equally good alignments disagreeing on the axes)."""
     best = reg.best
     others = [a.transform for a in reg.alignments[1:SPREAD_COUNT] if a.score >= best.score - SPREAD_SCORE_GAP]
     deg, metres = axis_spread(chain, best.transform, others)
-    return reg.poor or deg > MAX_SPREAD_DEG or metres * 1e3 > MAX_SPREAD_MM
+    spread = deg > MAX_SPREAD_DEG or metres * 1e3 > MAX_SPREAD_MM
+    return "+".join(why for why, on in (("fit", reg.poor), ("spread", spread)) if on)
 
 
 def summary(rows: list[Outcome]) -> tuple[float, float, float, float]:
@@ -182,7 +186,7 @@ class Results:
     ours: list[Outcome]
     icp: list[Outcome]
     icp_true: list[Outcome]
-    warned: list[bool]
+    warned: list[str]
     good: list[bool]
     cpu_s: float = 0.0
 
@@ -198,7 +202,7 @@ def run_set(pairs: list[tuple[int, Pair]]) -> Results:
         res.warned.append(flagged(reg, pair.chain))
         res.good.append(res.ours[-1].deg <= GOOD_DEG and not res.ours[-1].mm > GOOD_MM)
         res.icp.append(chain_error(plain_icp(pair.source, pair.target), pair.chain, pair.truth_chain))
-        rigid_true = Similarity(1.0, pair.truth.rotation, pair.truth.translation)
+        rigid_true = pair.rigid_truth
         from_true = plain_icp(rigid_true.apply_points(pair.source), pair.target).compose(rigid_true)
         res.icp_true.append(chain_error(from_true, pair.chain, pair.truth_chain))
         o, c, t = res.ours[-1], res.icp[-1], res.icp_true[-1]
@@ -206,7 +210,7 @@ def run_set(pairs: list[tuple[int, Pair]]) -> Results:
             f"{i:3d} {pair.label:22} {pair.truth.scale:5.2f} {pair.keep:4.2f} {'view' if pair.view else 'cut':4} | "
             f"{o.deg:8.2f} {o.mm:7.2f} {reg.best.fitness:4.2f} | {c.deg:8.1f} {c.mm:7.1f} | "
             f"{t.deg:12.2f} {t.mm:6.2f} | "
-            f"{time.process_time() - t0:4.1f}{'  WARNED' if res.warned[-1] else ''}",
+            f"{time.process_time() - t0:4.1f}{f'  WARNED ({res.warned[-1]})' if res.warned[-1] else ''}",
             flush=True,
         )
     return res
@@ -215,10 +219,11 @@ def run_set(pairs: list[tuple[int, Pair]]) -> Results:
 def print_summary(title: str, res: Results) -> None:
     """Median and worst errors of ours and the baselines, and how the warnings fall."""
     n = len(res.ours)
-    warned_good = sum(w and g for w, g in zip(res.warned, res.good, strict=True))
+    warned_good = sum(bool(w) and g for w, g in zip(res.warned, res.good, strict=True))
     missed_bad = sum(not w and not g for w, g in zip(res.warned, res.good, strict=True))
     print(
-        f"\n{title}: {n} pairs, CPU {res.cpu_s / max(n, 1):.1f} s per registration; warned {sum(res.warned)} "
+        f"\n{title}: {n} pairs, CPU {res.cpu_s / max(n, 1):.1f} s per registration; "
+        f"warned {sum(map(bool, res.warned))} "
         f"({warned_good} of them within {GOOD_DEG:g} deg / {GOOD_MM:g} mm), unwarned beyond that: {missed_bad}"
     )
     print(f"{'method':38} {'median deg':>10} {'worst deg':>10} {'median mm':>10} {'worst mm':>10}")
@@ -301,7 +306,7 @@ def run_bottles(trials: int, seed: int, points: int, only: int | None = None) ->
         t_pos, t_dir = truth.apply_point(b.axis_pos), truth.apply_direction(b.axis_dir)
         reg = register_models(source, target, focus=a.focus, grip=a.focus, rng=rng)
         ours.append(axis_error(reg.best.transform, t_pos, t_dir, a))
-        warned += flagged(reg, (_axis_primitive(a.axis_pos, a.axis_dir),))
+        warned += bool(flagged(reg, (_axis_primitive(a.axis_pos, a.axis_dir),)))
         reg_w = register_models(source, target, focus=a.focus, params=RegistrationParams(whole=True), rng=rng)
         whole.append(axis_error(reg_w.best.transform, t_pos, t_dir, a))
         icp.append(axis_error(plain_icp(source, target), t_pos, t_dir, a))

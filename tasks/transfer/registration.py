@@ -81,7 +81,10 @@ class RegistrationParams:
     max_crop_rescale: float = 1.5
     """The functional-part refinement may change the whole-model scale by at most this factor (else rigid)."""
     grip_frac: float = 0.08
-    """Radius of the grasped part's ball around each grip point, as a fraction of the source's diagonal."""
+    """Radius of the grasped part's ball around each grip point, as a fraction of the source's diagonal ..."""
+    grip_max_m: float = 0.06
+    """... and at most this (metres, source frame): about what a Barrett hand closes around, so that on a door
+    the lever still fills half the ball rather than a tenth of it."""
     grip_floor: float = 0.05
     """Added to both one-way fitnesses of the grip balls, so a scan missing the grasped part scores all alike."""
 
@@ -324,7 +327,7 @@ def _grip_score(
     src: Points, tgt: Points, grip: Points, fitted: Similarity, *, params: RegistrationParams, threshold: float
 ) -> float:
     """Two-way match of the balls around the grip points (source and carried into the target), in (0, 1]."""
-    radius = params.grip_frac * bbox_diagonal(src)
+    radius = min(params.grip_frac * bbox_diagonal(src), params.grip_max_m)
     ball_s = src[functional_mask(src, grip, radius)]
     ball_t = tgt[functional_mask(tgt, fitted.apply_points(grip), radius * fitted.scale)]
     g_st = _fitness(_cloud(ball_s), _cloud(tgt), fitted, threshold)[0] if len(ball_s) else 0.0

@@ -13,7 +13,8 @@ import numpy as np
 
 from schemas.descriptor import Descriptor
 from tasks.arrays import Points
-from tasks.transfer.carry import focus_points, grip_points
+from tasks.transfer.carry import focus_points, grip_points, matrix_from_quat
+from tasks.transfer.similarity import Similarity
 
 NORMAL_NEIGHBOURS = 12
 """Neighbours of the normal estimate (about the surface sampler's local spacing)."""
@@ -33,6 +34,8 @@ class SceneModel:
     """(k, 3) model points nearest the true grasp and axis points, as ``pbd transfer`` picks them."""
     grip: Points
     """(1, 3) model point nearest the true wrist position (the grasped part)."""
+    placement: Similarity
+    """World from the scene's base frame (rigid): where this instance stands."""
 
 
 def outward_normals(points: Points) -> Points:
@@ -60,4 +63,6 @@ def scene_model(name: str, seed: int, n_points: int, rng: np.random.Generator) -
     points = sample_object_model(scene, n_points, rng)
     truth = truth_descriptor(scene)
     normals = outward_normals(points)
-    return SceneModel(name, seed, points, normals, truth, focus_points(truth, points), grip_points(truth, points))
+    placement = Similarity(1.0, matrix_from_quat(scene.base_orientation), np.asarray(scene.base_position))
+    focus, grip = focus_points(truth, points), grip_points(truth, points)
+    return SceneModel(name, seed, points, normals, truth, focus, grip, placement)
