@@ -24,6 +24,8 @@ DAMPING = 0.02
 """Damping of the least-squares inverse (metres / radians): keeps joint steps bounded near singularities."""
 LIMIT_MARGIN_RAD = 0.02
 """Joint targets stay this far inside the iiwa's limits."""
+LOCK_ROUNDS = 3
+"""At most this many re-solves with joints at their limits locked."""
 POSTURE_GAIN = 0.1
 """Fraction of the way to the preferred posture (the base placement's verified joint path) per control tick."""
 ANGULAR_WEIGHT_M = 0.2
@@ -124,11 +126,24 @@ def line_twist(direction: npt.ArrayLike, distance_m: float) -> FloatArray:
 def command_for_twist(
     robot: rb.Robot, twist: FloatArray, posture: FloatArray | None = None, posture_gain: float = POSTURE_GAIN
 ) -> FloatArray:
-    """(7,) arm joint targets: the measured angles plus the increment realising ``twist`` (clipped to the limits);
-    with ``posture`` (7,) radians, the null space pulls the arm ``posture_gain`` of the way towards it per tick."""
+    """(7,) arm joint targets: the measured angles plus the increment realising ``twist``; with ``posture`` (7,)
+    radians, the null space pulls the arm ``posture_gain`` of the way towards it per tick. A joint the increment
+    would push past its limit (less ``LIMIT_MARGIN_RAD``) is locked there and the twist re-solved with the others,
+    so the redundant arm works round a limit instead of stalling the palm against it."""
     joints = measured_joints(robot)
     q = joints[: len(rb.ARM_JOINTS)]
+    lower, upper = rb.ARM_LOWER + LIMIT_MARGIN_RAD, rb.ARM_UPPER - LIMIT_MARGIN_RAD
     pull = None if posture is None else posture_gain * (np.asarray(posture, dtype=np.float64) - q)
-    dq = joint_step(palm_jacobian(robot, joints), twist, pull)
-    out: FloatArray = np.clip(q + dq, rb.ARM_LOWER + LIMIT_MARGIN_RAD, rb.ARM_UPPER - LIMIT_MARGIN_RAD)
+    jac = palm_jacobian(robot, joints)
+    locked = np.zeros(len(q), dtype=bool)
+    dq = np.zeros(len(q))
+    for _ in range(LOCK_ROUNDS):
+        free = ~locked
+        dq = np.zeros(len(q))
+        dq[free] = joint_step(jac[:, free], twist, None if pull is None else pull[free])
+        over = ((q + dq < lower) & (dq < 0.0)) | ((q + dq > upper) & (dq > 0.0))
+        if not over.any():
+            break
+        locked |= over
+    out: FloatArray = np.clip(q + dq, lower, upper)
     return out

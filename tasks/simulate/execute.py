@@ -57,6 +57,7 @@ from tasks.simulate.session import (
     descendants,
     scene_joints,
 )
+from tasks.simulate.tracking import AxisTracker
 from tasks.simulate.waypoints import (
     ARC_STEP_RAD,
     LINE_STEP_M,
@@ -168,6 +169,7 @@ def _execute_primitive(
     joint: SceneJoint,
     *,
     path: tuple[FloatArray, FloatArray],
+    correct_axis: bool = True,
 ) -> PrimitiveResult:
     assert run.robot is not None
     start_steps = run.steps
@@ -181,11 +183,13 @@ def _execute_primitive(
     def achieved() -> float:
         return match.sign * (run.joint_value(joint.index)[0] - q_start)
 
+    tracker = AxisTracker(prim, *rb.palm_pose(run.robot))
     for _ in range(int(MAX_PATH_FACTOR * planned) + STALL_WINDOW):
-        p, _q = rb.palm_pose(run.robot)
+        p, q = rb.palm_pose(run.robot)
+        axis = tracker.corrected(p, q) if correct_axis else prim
         remaining = prim.extent - achieved()
         ahead = min(prim.extent, achieved() + step)
-        run.move_by(primitive_twist(prim, p, min(step, max(remaining, 0.25 * step))), posture_at(path, ahead))
+        run.move_by(primitive_twist(axis, p, min(step, max(remaining, 0.25 * step))), posture_at(path, ahead))
         run.step(STEPS_PER_WAYPOINT)
         run.check_contact()
         a = achieved()
@@ -320,7 +324,11 @@ def _execute(run: Session, desc: Descriptor, grasp_mode: GraspMode, wall0: float
     results: list[PrimitiveResult] = []
     for i, (prim, match) in enumerate(zip(desc.chain, matches, strict=True)):
         path = posture_path(keys, placement.q_path, i)
-        results.append(_execute_primitive(run, i, prim, match, by_name[match.joint], path=path))
+        results.append(
+            _execute_primitive(
+                run, i, prim, match, by_name[match.joint], path=path, correct_axis=grasp_mode == "constraint"
+            )
+        )
 
     # Hold still, then judge.
     run.step(int(HOLD_S / TIME_STEP_S))
