@@ -103,11 +103,12 @@ def palm_seed(
 
 def scene_cases(seeds: range) -> list[Case]:
     """The four paper tasks as the built-in scenes (tasks.scenes), seeded instances: the object model sampled as
-    ``pbd synth`` records it (2048 points on the model links), the seed the scene's demonstrated palm pose."""
+    ``pbd synth`` records it (``scan_object_model``: 8192 points, half within 15 cm of the demonstrated palm, with
+    the model generator ``pbd synth`` uses), the seed the scene's demonstrated palm pose."""
     from tasks.scenes.catalog import SCENE_NAMES, build_scene
     from tasks.scenes.kinematics import truth_descriptor
-    from tasks.scenes.surface import sample_object_model
     from tasks.synth.record import OBJECT_MODEL_POINTS
+    from tasks.synth.scan import scan_object_model
 
     cases: list[Case] = []
     for name in SCENE_NAMES:
@@ -115,7 +116,8 @@ def scene_cases(seeds: range) -> list[Case]:
             scene = build_scene(name, seed)
             grasp = truth_descriptor(scene).grasp
             assert grasp is not None
-            pts = sample_object_model(scene, OBJECT_MODEL_POINTS, np.random.default_rng(seed))
+            model_rng = np.random.default_rng(np.random.SeedSequence(seed).spawn(3)[2])
+            pts = scan_object_model(scene, OBJECT_MODEL_POINTS, model_rng)
             cases.append(
                 Case(f"{name} seed {seed}", pts, np.array(grasp.wrist_position), np.array(grasp.wrist_orientation))
             )
