@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 from collections.abc import Sequence
 from types import ModuleType
@@ -26,6 +27,27 @@ COMMANDS: dict[str, str] = {
     "archive": "run the reprocessing flow over every recording in a folder",
     "serve": "serve the Prefect deployments with their schedules",
 }
+
+
+PYBULLET_COMMANDS = frozenset({"demo", "synth", "learn", "transfer", "simulate", "archive", "serve"})
+"""Commands that load pybullet, whose import prints its build time on stderr (C level); they import it quietly."""
+
+
+def quiet_pybullet_import() -> None:
+    """Import pybullet with the process's stderr (file descriptor 2) sent to /dev/null meanwhile, so its build-time
+    banner does not join a command's one-line error output."""
+    if "pybullet" in sys.modules:
+        return
+    sys.stderr.flush()
+    saved = os.dup(2)
+    null = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(null, 2)
+        importlib.import_module("pybullet")
+    finally:
+        os.close(null)
+        os.dup2(saved, 2)
+        os.close(saved)
 
 
 def _module(name: str) -> ModuleType:
@@ -47,6 +69,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``pbd`` console script; returns the exit code."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    if args.command in PYBULLET_COMMANDS:
+        quiet_pybullet_import()
     try:
         code: int = _module(args.command).run(args)
     except PbdError as err:

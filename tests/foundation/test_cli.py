@@ -48,3 +48,24 @@ def test_cli_start_up_is_light() -> None:
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=REPO)
     assert out.stdout.strip() == ""
+
+
+def test_an_error_after_pybullet_loaded_is_one_stderr_line(tmp_path: Path) -> None:
+    """pybullet prints its build time on stderr when imported; commands that load it import it quietly."""
+    from tasks.simulate.objects import DrawerSpec
+
+    desc = tmp_path / "door.json"
+    desc.write_text(DrawerSpec().descriptor(0.3).to_json())  # a translation: the bottle has no slide
+    pbd = Path(sys.executable).with_name("pbd")
+    out = subprocess.run(
+        [str(pbd), "simulate", str(desc), "--scene", "bottle", "--store", str(tmp_path / "store")],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+    assert out.returncode == 2
+    lines = out.stderr.splitlines()
+    assert len(lines) == 1, out.stderr
+    assert lines[0].startswith("pbd simulate: "), lines[0]
+    assert "prismatic" in lines[0], lines[0]
