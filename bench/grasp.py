@@ -212,7 +212,7 @@ class Row:
 def run_case(case: Case, seed: int) -> Row:
     """Plan (with the planner's own shake check), then shake-test the plan and the baseline."""
     part = part_near(case.points, case.seed_pos)
-    model = build_object_model(part, np.random.default_rng(seed))
+    model = build_object_model(part, np.random.default_rng(seed), viewpoint=case.seed_pos)
     t0 = time.perf_counter()
     try:
         cand = plan_on_model(model, case.seed_pos, case.seed_quat, np.random.default_rng(seed))

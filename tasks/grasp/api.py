@@ -196,7 +196,7 @@ def plan_grasp(
     """Plan a Barrett grasp on ``object_points`` (n, 3) (world, metres) near a seed **palm** pose (the hand base
     frame, world; +z approach). ``quality["force_closure"]`` is false only when no force-closure grasp was found."""
     _check_seed(seed_position, seed_quat_xyzw)
-    model = build_object_model(object_points, rng)
+    model = build_object_model(object_points, rng, viewpoint=np.asarray(seed_position, dtype=np.float64))
     return grasp_from_candidate(plan_on_model(model, seed_position, seed_quat_xyzw, rng, params))
 
 

@@ -75,6 +75,22 @@ def _finger_touches(client_id: int, hand: int, obj: int, links: tuple[int, ...])
     return any(min_distance(client_id, hand, obj, link, within=0.01) < CONTACT_M for link in links)
 
 
+def _pair_distances(client_id: int, hand: int, obj: int, links: tuple[int, ...]) -> dict[tuple[int, int], float]:
+    """Closest distance (m, within 10 mm) of each (hand link, object piece) pair of ``links``."""
+    out: dict[tuple[int, int], float] = {}
+    for link in links:
+        for p in pb.getClosestPoints(hand, obj, 0.01, linkIndexA=link, physicsClientId=client_id):
+            key = (int(p[3]), int(p[4]))
+            out[key] = min(out.get(key, 1.0), float(p[8]))
+    return out
+
+
+def _blocked(before: dict[tuple[int, int], float], after: dict[tuple[int, int], float]) -> bool:
+    """Whether a move pressed a link into a piece: a pair touching after it that came closer (a finger touching
+    the face behind a handle while it closes away from it is not blocked: the BH8 slides on)."""
+    return any(d < CONTACT_M and d < before.get(key, 1.0) - 1e-4 for key, d in after.items())
+
+
 def _set_finger(client_id: int, hand: int, finger: int, proximal: float, distal: float) -> None:
     pb.resetJointState(hand, barrett.PROXIMAL_JOINTS[finger], proximal, 0.0, physicsClientId=client_id)
     pb.resetJointState(hand, barrett.DISTAL_JOINTS[finger], distal, 0.0, physicsClientId=client_id)
@@ -89,24 +105,29 @@ def _close_joint(  # noqa: PLR0917 -- private helper
     set_angle: Callable[[float], None],
     links: tuple[int, ...],
 ) -> tuple[float, bool]:
-    """Increase one angle from ``start`` to ``stop`` until ``links`` touch; returns (angle, touched)."""
+    """Increase one angle from ``start`` to ``stop`` until ``links`` are blocked (pressed into the object, not
+    merely touching it while moving away: ``_blocked``); returns (angle, blocked)."""
     prev = start
     angle = start
+    set_angle(start)
+    before = _pair_distances(client_id, hand, obj, links)
     while angle < stop - 1e-9:
         angle = min(angle + CLOSE_STEP_RAD, stop)
         set_angle(angle)
-        if _finger_touches(client_id, hand, obj, links):
+        after = _pair_distances(client_id, hand, obj, links)
+        if _blocked(before, after):
             lo, hi = prev, angle
             for _ in range(BISECT_ITERS):
                 mid = 0.5 * (lo + hi)
                 set_angle(mid)
-                if _finger_touches(client_id, hand, obj, links):
+                if _blocked(before, _pair_distances(client_id, hand, obj, links)):
                     hi = mid
                 else:
                     lo = mid
             set_angle(lo)
             return lo, True
         prev = angle
+        before = after
     return angle, False
 
 
@@ -170,13 +191,16 @@ def contacts_of(client_id: int, hand: int, obj: int, within: float = 0.002, merg
     return Contacts(np.array(positions), np.array(normals), np.array(links, dtype=np.int64))
 
 
-def open_free(client_id: int, hand: int, obj: int, spread_rad: float, min_finger_rad: float = 0.0) -> FloatArray:
+def open_free(  # noqa: PLR0917 -- pybullet ids, then the opening
+    client_id: int, hand: int, obj: int, spread_rad: float, min_finger_rad: float = 0.0, tolerance_m: float = 0.0
+) -> FloatArray:
     """(4,) DOFs of the open hand at ``spread_rad`` (fingers at ``barrett.OPEN_FINGER_RAD``), opened further in
-    0.1 rad steps (down to ``min_finger_rad``) while it touches the object at its current pose; applied."""
+    0.1 rad steps (down to ``min_finger_rad``) while it is inside the object by more than ``tolerance_m`` at its
+    current pose; applied."""
     finger = barrett.OPEN_FINGER_RAD
     while True:
         dofs = barrett.open_dofs(spread_rad, finger)
         barrett.apply_dofs(client_id, hand, dofs)
-        if finger <= min_finger_rad or min_distance(client_id, hand, obj) >= 0.0:
+        if finger <= min_finger_rad or min_distance(client_id, hand, obj) >= -tolerance_m:
             return dofs
         finger = max(min_finger_rad, finger - 0.1)

@@ -24,13 +24,27 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import breadth_first_order, connected_components, minimum_spanning_tree
 from scipy.spatial import ConvexHull, QhullError, cKDTree
 
-from tasks.arrays import FloatArray, Points, Vector3
+from tasks.arrays import BoolArray, FloatArray, Points, Vector3
 from tasks.errors import GraspError
 
 MIN_POINTS = 30
 """Fewest object points a grasp is planned on."""
 INWARD_OFFSET_M = 0.005
 """Thickness given to each surface patch of the point cloud, metres."""
+COHERENT_COS = math.cos(math.radians(50.0))
+"""A convex piece's normals stay within 50° of their mean (else its cluster is split)."""
+NORMAL_FEATURE_M = 0.02
+"""Weight of the normal in the split's k-means features, metres (a normal flip counts as 40 mm apart)."""
+LOCAL_RADIUS_M = 0.015
+CONVEX_BULGE_M = 0.0012
+"""A point hidden from the viewpoint whose neighbours within 15 mm lie behind it by a median of over 1.2 mm along
+its normal lies on a convex patch (the back of a bar): its normal is turned away from them. The median, not the
+centroid: beside a post standing on a face most neighbours lie in the face."""
+OUTSIDE_RESULTANT = 0.3
+"""The viewpoint counts as outside the object when the mean of the unit directions to the points is at least
+this long (a palm buried in the object has points all around it: then it is ignored)."""
+MIN_PIECE_POINTS = 6
+"""Fewest points of a piece made by a split."""
 
 
 @dataclass(frozen=True)
@@ -90,9 +104,33 @@ def voxel_downsample(points: Points, voxel_m: float) -> Points:
     return sums / counts[:, None]
 
 
-def estimate_normals(points: Points, k: int = 16) -> Points:
+def visible_from(points: Points, viewpoint: Vector3, clearance_m: float = 0.0045, near_m: float = 0.008) -> BoolArray:
+    """(n,) whether each point is seen from ``viewpoint`` (world, m): no other point within ``clearance_m`` of the
+    line of sight (sampled every 1.5 mm up to ``near_m`` before the point; 4.5 mm: a scan of 4 mm spacing has no
+    holes that wide)."""
+    view = np.asarray(viewpoint, dtype=np.float64)
+    rel = points - view
+    dist = np.linalg.norm(rel, axis=1)
+    unit = rel / np.maximum(dist, 1e-12)[:, None]
+    steps = np.arange(0.0, max(float(dist.max()) - near_m, 0.0), 0.0015)
+    if len(steps) == 0:
+        return np.ones(len(points), dtype=bool)
+    samples = view + steps[None, :, None] * unit[:, None, :]
+    valid = steps[None, :] < (dist - near_m)[:, None]
+    hit_dist, _ = cKDTree(points).query(samples[valid], k=1, distance_upper_bound=clearance_m)
+    blocked = np.zeros(valid.shape, dtype=bool)
+    blocked[valid] = np.isfinite(hit_dist)
+    out: BoolArray = np.logical_not(blocked.any(axis=1))
+    return out
+
+
+def estimate_normals(points: Points, k: int = 16, viewpoint: Vector3 | None = None) -> Points:
     """Outward unit normals (n, 3): PCA of the k nearest neighbours, signs propagated along a minimum spanning
-    tree of the kNN graph (Hoppe et al. 1992) from the point farthest from the centroid, which faces outwards."""
+    tree of the kNN graph (Hoppe et al. 1992). With ``viewpoint`` (world, m; a place outside the object such as
+    the demonstrated palm, from where a digitizer saw it), the points seen from it whose normals face it clearly
+    (|cos| > 0.5) are the roots, their normals turned towards it, and the rest follow along the tree from them:
+    one root on a bar handle flipped the whole door face behind it. Without, or for parts the roots do not reach,
+    the root is the point farthest from the centroid."""
     n = len(points)
     k = min(k, n)
     _, idx = cKDTree(points).query(points, k)
@@ -104,7 +142,25 @@ def estimate_normals(points: Points, k: int = 16) -> Points:
     pairs = np.unique(np.sort(np.stack([rows, cols], axis=1), axis=1), axis=0)
     pairs = pairs[pairs[:, 0] != pairs[:, 1]]
     weights = 1.0 + 1e-6 - np.abs(np.einsum("ij,ij->i", normals[pairs[:, 0]], normals[pairs[:, 1]]))
-    graph = coo_matrix((weights, (pairs[:, 0], pairs[:, 1])), shape=(n, n)).tocsr()
+    roots = np.zeros(0, dtype=np.int64)
+    view = None if viewpoint is None else np.asarray(viewpoint, dtype=np.float64)
+    to_view = np.zeros_like(points) if view is None else view - points
+    to_view /= np.maximum(np.linalg.norm(to_view, axis=1, keepdims=True), 1e-12)
+    if view is not None and float(np.linalg.norm(to_view.mean(axis=0))) >= OUTSIDE_RESULTANT:
+        facing = np.einsum("ij,ij->i", normals, to_view)
+        seen = visible_from(points, view)
+        seen_roots = np.flatnonzero(seen & (np.abs(facing) > 0.5))
+        normals[seen_roots] *= np.sign(facing[seen_roots])[:, None]
+        # hidden points on a convex patch (the back of a bar) face away from most of their neighbours
+        local = cKDTree(points).query_ball_point(points, LOCAL_RADIUS_M, return_sorted=False)
+        bulge = np.array([float(np.median((points[i] - points[nb]) @ normals[i])) for i, nb in enumerate(local)])
+        hidden_roots = np.flatnonzero(~seen & (np.abs(bulge) > CONVEX_BULGE_M))
+        normals[hidden_roots] *= np.sign(bulge[hidden_roots])[:, None]
+        roots = np.concatenate([seen_roots, hidden_roots])
+    # node n is a virtual root joined to every seen point (tiny weight: csgraph drops zero-weight edges)
+    pairs = np.concatenate([pairs, np.stack([roots, np.full(len(roots), n)], axis=1)])
+    weights = np.concatenate([weights, np.full(len(roots), 1e-9)])
+    graph = coo_matrix((weights, (pairs[:, 0], pairs[:, 1])), shape=(n + 1, n + 1)).tocsr()
     tree = minimum_spanning_tree(graph)
     tree = tree + tree.T
     centroid = points.mean(axis=0)
@@ -112,14 +168,40 @@ def estimate_normals(points: Points, k: int = 16) -> Points:
     n_comp, comp = connected_components(tree, directed=False)
     for c in range(n_comp):
         members = np.flatnonzero(comp == c)
-        root = int(members[np.argmax(far[members])])
-        if float(normals[root] @ (points[root] - centroid)) < 0:
-            normals[root] = -normals[root]
+        if comp[n] == c:
+            root = n
+        else:
+            root = int(members[np.argmax(far[members])])
+            if float(normals[root] @ (points[root] - centroid)) < 0:
+                normals[root] = -normals[root]
         order, pred = breadth_first_order(tree, root, directed=False, return_predecessors=True)
         for node in order[1:]:
-            if float(normals[node] @ normals[pred[node]]) < 0:
+            parent = pred[node]
+            if n in {parent, node}:
+                continue
+            if float(normals[node] @ normals[parent]) < 0:
                 normals[node] = -normals[node]
     return np.asarray(normals, dtype=np.float64)
+
+
+def _coherent(
+    members: npt.NDArray[np.int64], points: Points, normals: Points, rng: np.random.Generator, depth: int = 0
+) -> list[npt.NDArray[np.int64]]:
+    """Split a cluster (indices) in two (k-means on position and normal) until its normals lie within
+    ``COHERENT_COS`` of their mean: the hull of a cluster that holds a face and a post standing on it fills the
+    space between them (a door's face bulged 6 mm towards the hand next to its lever)."""
+    if len(members) < 2 * MIN_PIECE_POINTS or depth >= 4:
+        return [members]
+    mean = normals[members].sum(axis=0)
+    norm = float(np.linalg.norm(mean))
+    if norm > 1e-9 and float(np.min(normals[members] @ (mean / norm))) >= COHERENT_COS:
+        return [members]
+    features = np.concatenate([points[members], NORMAL_FEATURE_M * normals[members]], axis=1)
+    _, labels = kmeans2(features, 2, minit="++", seed=rng)
+    halves = [members[labels == k] for k in (0, 1)]
+    if min(len(h) for h in halves) < MIN_PIECE_POINTS:
+        return [members]
+    return [piece for half in halves for piece in _coherent(half, points, normals, rng, depth + 1)]
 
 
 def convex_parts(
@@ -131,9 +213,11 @@ def convex_parts(
         labels = np.zeros(len(points), dtype=np.int64)
     else:
         _, labels = kmeans2(points, n_parts, minit="++", seed=rng)
-    parts: list[Points] = []
+    clusters: list[npt.NDArray[np.int64]] = []
     for label in np.unique(labels):
-        sel = labels == label
+        clusters += _coherent(np.flatnonzero(labels == label), points, normals, rng)
+    parts: list[Points] = []
+    for sel in clusters:
         cloud = np.concatenate([points[sel], points[sel] - INWARD_OFFSET_M * normals[sel]])
         if len(cloud) < 4:
             continue
@@ -155,15 +239,17 @@ def build_object_model(
     voxel_m: float = 0.004,
     normals: Points | None = None,
     primitive: PrimitiveShape | None = None,
+    viewpoint: Vector3 | None = None,
 ) -> ObjectModel:
-    """Object model for planning from (n, 3) world points (m): downsampled, normals, convex parts or primitive."""
+    """Object model for planning from (n, 3) world points (m): downsampled, normals (oriented away from
+    ``viewpoint``, a place outside the object, when given), convex parts or primitive."""
     pts = check_object_points(points)
     if normals is None:
         pts = voxel_downsample(pts, voxel_m)
         if len(pts) < MIN_POINTS:
             msg = f"object_points: {len(pts)} points after {voxel_m * 1000:.0f} mm voxels, need {MIN_POINTS}"
             raise GraspError(msg)
-        nrm = estimate_normals(pts)
+        nrm = estimate_normals(pts, viewpoint=viewpoint)
     else:
         nrm = np.asarray(normals, dtype=np.float64)
         if nrm.shape != pts.shape:

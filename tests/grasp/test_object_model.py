@@ -73,3 +73,20 @@ def test_a_hand_buried_in_the_object_finds_no_grasp() -> None:
     pts = rng.uniform(-0.15, 0.15, (6000, 3))  # a solid 30 cm block, the seed palm at its centre
     with pytest.raises(GraspError, match="no collision-free grasp found near the seed pose"):
         plan_grasp(pts, np.zeros(3), PALM_DOWN, rng)
+
+
+def test_normals_seen_from_the_palm_face_it_behind_a_bar_handle() -> None:
+    # a 12 mm bar along x, and 70 mm behind it a face cropped from a door (its back not in the cloud), seen from
+    # the palm 40 mm in front of the bar: the face's normals point at the palm (-y), the bar's back away (+y)
+    rng = np.random.default_rng(3)
+    theta = rng.uniform(0.0, 2.0 * np.pi, 1500)
+    bar = np.stack([rng.uniform(-0.08, 0.08, 1500), 0.012 * np.cos(theta), 0.012 * np.sin(theta)], axis=1)
+    face_pts = np.stack([rng.uniform(-0.12, 0.12, 4000), np.full(4000, 0.07), rng.uniform(-0.12, 0.12, 4000)], axis=1)
+    pts = voxel_downsample(np.concatenate([bar, face_pts]), 0.004)
+    palm = np.array([0.0, -0.04, 0.0])
+    est = estimate_normals(pts, viewpoint=palm)
+    face = np.abs(pts[:, 1] - 0.07) < 0.001
+    back = (pts[:, 1] > 0.009) & (np.abs(pts[:, 2]) < 0.006) & (pts[:, 1] < 0.02)
+    assert face.sum() > 100 and back.sum() > 10
+    assert np.mean(est[face, 1] < -0.9) > 0.95  # without the viewpoint: 0 (the whole face flipped)
+    assert np.mean(est[back, 1] > 0.7) > 0.8

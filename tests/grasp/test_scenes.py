@@ -15,9 +15,9 @@ from tasks.grasp.object_model import build_object_model
 from tasks.recording.load import PoseTrack
 from tasks.scenes.catalog import build_scene
 from tasks.scenes.kinematics import truth_descriptor
-from tasks.scenes.surface import sample_object_model
 from tasks.simulate.api import simulate_descriptor
 from tasks.synth.record import OBJECT_MODEL_POINTS
+from tasks.synth.scan import scan_object_model
 
 
 @pytest.mark.parametrize("name", ["bottle", "sliding-door", "microwave"])
@@ -28,8 +28,8 @@ def test_scene_grasp_is_near_the_demonstration_and_executes(name: str) -> None:
     assert truth.grasp is not None
     demo_pos = np.array(truth.grasp.wrist_position)
     demo_quat = np.array(truth.grasp.wrist_orientation)
-    points = sample_object_model(scene, OBJECT_MODEL_POINTS, np.random.default_rng(seed))
-    model = build_object_model(part_near(points, demo_pos), np.random.default_rng(0))
+    points = scan_object_model(scene, OBJECT_MODEL_POINTS, np.random.default_rng(seed))
+    model = build_object_model(part_near(points, demo_pos), np.random.default_rng(0), viewpoint=demo_pos)
     grasp = grasp_from_candidate(plan_on_model(model, demo_pos, demo_quat, np.random.default_rng(0)))
     offset_m = float(np.linalg.norm(np.array(grasp.wrist_position) - demo_pos))
     turn = Rotation.from_quat(demo_quat).inv() * Rotation.from_quat(grasp.wrist_orientation)
