@@ -170,12 +170,13 @@ def _execute_primitive(
     *,
     path: tuple[FloatArray, FloatArray],
     correct_axis: bool = True,
+    origin: float | None = None,
 ) -> PrimitiveResult:
     assert run.robot is not None
     start_steps = run.steps
     step = ARC_STEP_RAD if prim.kind == "rotation" else LINE_STEP_M
     planned = max(1, math.ceil(prim.extent / step))
-    q_start, _ = run.joint_value(joint.index)
+    q_start = run.joint_value(joint.index)[0] if origin is None else origin
     checks0, hits0 = run.contact_checks, run.contact_hits
     history: list[float] = []
     stopped: StopReason = "end of path"
@@ -322,11 +323,22 @@ def _execute(run: Session, desc: Descriptor, grasp_mode: GraspMode, wall0: float
     run.trace_joints = tuple(by_name[name].index for name in driven)
 
     results: list[PrimitiveResult] = []
+    seen: set[str] = set()
     for i, (prim, match) in enumerate(zip(desc.chain, matches, strict=True)):
+        # a joint's first primitive counts its motion from the scene's start (a grasp may already have moved it)
+        origin = None if match.joint in seen else q0[by_name[match.joint].index]
+        seen.add(match.joint)
         path = posture_path(keys, placement.q_path, i)
         results.append(
             _execute_primitive(
-                run, i, prim, match, by_name[match.joint], path=path, correct_axis=grasp_mode == "constraint"
+                run,
+                i,
+                prim,
+                match,
+                by_name[match.joint],
+                path=path,
+                correct_axis=grasp_mode == "constraint",
+                origin=origin,
             )
         )
 

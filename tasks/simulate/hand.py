@@ -15,9 +15,9 @@ CLOSE_EXTRA_RAD = 0.5
 OPEN_BEYOND_STRAIGHT_RAD = 0.3
 """Pre-grasp: fingers opened this far past pointing along the approach (where the hand's joint range allows) ..."""
 WIDER_OPENINGS_RAD: tuple[float, ...] = (0.25, 0.5, 0.75)
-"""... or this much further when a finger would touch the scene at the grasp pose ..."""
-PREGRASP_CLEARANCE_M = 0.003
-"""... closer than this."""
+"""... or this much further when a finger would be inside the scene at the grasp pose ..."""
+PREGRASP_PENETRATION_M = 0.002
+"""... more than this deep inside it (a finger merely touching, say, the door behind a bar handle is fine)."""
 CLOSE_RATE_RAD_S = 2.0
 """Finger closing speed, rad/s (the BH8-280 closes in about 1 s)."""
 SQUEEZE_RAD = 0.3
@@ -36,7 +36,7 @@ CLOSE_MAX_S = 2.0
 def pregrasp_opening(planner: rb.Robot, scene_body: int, q_grasp: FloatArray, spread_rad: float) -> FloatArray:
     """(4,) DOFs of the open hand to approach with: the fingers ``OPEN_BEYOND_STRAIGHT_RAD`` past pointing along
     the approach, or opened further (``WIDER_OPENINGS_RAD``) when at the grasp pose (arm at ``q_grasp`` in the
-    planning client) a finger would already touch the scene there (a wide cap: the fingertips land on its rim
+    planning client) a finger would already be inside the scene there (a wide cap: the fingertips land on its rim
     and slide off outside it), unless no opening is clear."""
     import pybullet as pb  # noqa: PLC0415
 
@@ -52,10 +52,9 @@ def pregrasp_opening(planner: rb.Robot, scene_body: int, q_grasp: FloatArray, sp
         rb.set_hand(planner, [spread_rad, opening, opening, opening])
         pb.performCollisionDetection(physicsClientId=planner.client)
         clear = all(
-            not pb.getClosestPoints(
-                planner.body, scene_body, PREGRASP_CLEARANCE_M, linkIndexA=link, physicsClientId=planner.client
-            )
+            p[8] > -PREGRASP_PENETRATION_M
             for link in fingers
+            for p in pb.getClosestPoints(planner.body, scene_body, 0.0, linkIndexA=link, physicsClientId=planner.client)
         )
         if clear:
             chosen = opening

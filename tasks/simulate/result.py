@@ -19,7 +19,8 @@ StopReason = Literal["extent reached", "stalled", "end of path"]
 @dataclass(frozen=True)
 class PrimitiveResult:
     """One executed primitive: ``target`` (the demonstrated extent, rad or m) and ``achieved`` joint motion in the
-    demonstrated direction; ``joint`` it drove; ``contact_fraction`` of control checks with hand-object contact;
+    demonstrated direction (for a joint's first primitive from the scene's start, so motion the grasp already
+    caused counts); ``joint`` it drove; ``contact_fraction`` of control checks with hand-object contact;
     ``sim_time_s`` simulated seconds; ``stopped`` why execution moved on; ``end_speed`` joint speed at the end
     (rad/s or m/s); ``success`` = achieved >= 90% target and still at the end."""
 
