@@ -23,8 +23,9 @@ from tasks.transfer.similarity import Similarity
 
 __all__ = ["RegistrationParams", "TransferResult", "register_models", "transfer_descriptor"]
 
-SPREAD_SCORE_GAP = 0.05
-"""Alignments scoring within this of the best count as equally plausible for the axis spread."""
+SPREAD_SCORE_GAP = 0.02
+"""Alignments scoring within this of the best count as equally plausible for the axis spread: a box's mirror
+image whose knob the scan hardly shows scores within 0.01 of it, an upside-down mug 0.035-0.04 below."""
 SPREAD_COUNT = 5
 """At most this many best alignments (the best included) enter the axis spread."""
 STANDOFF_RAY_SPACINGS = 3.0

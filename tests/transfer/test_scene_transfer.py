@@ -36,10 +36,15 @@ def test_transferred_bottle_descriptor_executes_on_the_novel_bottle(tmp_path: Pa
     assert info["poor"] is False
     assert info["target_model"] is not None and len(info["target_model"]) == 16  # the recording id
 
+    # the transfer adds under 1 deg and 1 mm to what learning got wrong on A (both against the true cap axes)
+    truth_a = truth_descriptor(build_scene("bottle", SEED_A)).chain[0]
     truth = truth_descriptor(build_scene("bottle", SEED_B)).chain[0]
+    (learned_axis,) = source.chain
     (axis,) = moved.chain
-    assert angle_between_deg(np.array(axis.dir), np.array(truth.dir)) < 1.0
-    assert point_line_distance(np.array(truth.pos), np.array(axis.pos), np.array(axis.dir)) < 1e-3
+    learned_deg = angle_between_deg(np.array(learned_axis.dir), np.array(truth_a.dir))
+    learned_m = point_line_distance(np.array(truth_a.pos), np.array(learned_axis.pos), np.array(learned_axis.dir))
+    assert angle_between_deg(np.array(axis.dir), np.array(truth.dir)) < learned_deg + 1.0
+    assert point_line_distance(np.array(truth.pos), np.array(axis.pos), np.array(axis.dir)) < learned_m + 1e-3
     assert axis.extent == source.chain[0].extent  # a rotation's extent is kept
 
     result = simulate_descriptor(moved, scene="bottle", rng=np.random.default_rng(SEED_B))
