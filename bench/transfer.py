@@ -1,20 +1,27 @@
 """Benchmark: transfer of a functional axis between similar objects, against plain ICP, measured in one run.
 
-Pairs: a source model (full surface, 0.3 mm noise) and a target made of an independent sampling of the same
-surface under a random similarity (scale 0.7 to 1.4, any rotation, a shift up to 0.5 m), cut to a partial scan
-keeping 50 to 100 % of the surface (half by a random plane, half by a random view direction) with 0.3 mm
-noise. A scan that keeps less than 60 % of the functional part is drawn again: no registration can place a
-part the scan does not show. The axis (a cap's, a hinge's, a drawer's pull direction) is carried by the
-estimated transform and compared with the true one: direction error (degrees) and position error (mm, the
-true axis point to the carried line).
+Random shape pairs: a source model (full surface, 0.3 mm noise) and a target made of an independent sampling of
+the same surface under a random similarity (scale 0.7 to 1.4, any rotation, a shift up to 0.5 m), cut to a
+partial scan keeping 50 to 100 % of the surface (half by a random plane, half by a random view direction) with
+0.3 mm noise. Built-in scene pairs: instance A of a scene (``tasks.scenes``: its digitizer model, 9 000
+points) as the source, instance B (other sizes, placement, cap or handle) under the same random similarity,
+partial scan and noise as the target; the true axes are the scenes' kinematics. A scan that keeps less than
+60 % of the functional part is drawn again: no registration can place a part the scan does not show. The axes
+are carried by the estimated transform and compared with the true ones: worst direction error over the chain
+(degrees) and worst position error (mm, the true axis point to the carried line; rotations only).
 
 Baselines in the same run: the paper's plain ICP (rigid, from the identity, no scale) and, to isolate what
-the missing scale costs, rigid ICP started at the true pose.
+the missing scale costs, rigid ICP started at the true pose (scene pairs: at B's placement relative to A's).
 
 The bottle experiment (Dang & Allen: a cap-twist descriptor taken to a novel bottle, 6 degrees and 4 mm with
 ICP): bottle A's cap axis carried to bottle B of another size and shape, whose true cap axis is known.
 
-    .venv/bin/python bench/transfer.py [--quick] [--pairs N] [--seed N]
+``--simulate`` (issue 6's done-criterion): ``pbd synth`` recordings of bottle instances A and B, the descriptor
+learned from A's, transferred onto B's recorded object model, executed in instance B in pybullet; beside it
+the paper's plain-ICP transfer, the untransferred descriptor on B and the learned one on its own instance A.
+
+    .venv/bin/python bench/transfer.py [--quick] [--pairs N] [--scene-pairs N] [--seed N]
+    .venv/bin/python bench/transfer.py --simulate [--pairs N] [--seed N] [--scene NAME]
 """
 
 from __future__ import annotations

@@ -10,7 +10,9 @@ Pipeline (all clouds are (n, 3) float64 metres, each in its own object/world fra
    of the two one-way fitnesses, so neither a shrunken source nor a partial target wins by accident.
 3. The best distinct candidates are refined at fine resolution on the functional part of the source (points
    within ``crop_radius_m`` of the focus points: the grasp and the chain's axis points), or on the whole
-   model, again with similarity ICP, and ranked by fitness and inlier RMSE.
+   model, again with similarity ICP, and ranked by fitness and inlier RMSE; with ``grip`` points (the grasped
+   part) also by how well the small balls around them match both ways (the handle side of a box, not its
+   mirror image).
 
 The paper (Dang & Allen) used plain ICP, which neither finds a global alignment nor estimates scale;
 ``plain_icp`` is that baseline, for the benchmark.
