@@ -39,10 +39,11 @@ SPREAD_BINS = (0.0, 0.7, 2.0, 4.0)
 """Candidates are taken from each spread range (rad): fingers opposing the thumb, tripod, hook."""
 CHAIN_SPREADS = (-1.13, 0.0, 0.44, 2.0, -0.5, 1.2)
 """Start amplitude a1 of each annealing chain: spread 0, 1.13 (origin), π/2 and π, then in between."""
-LINE_SPREADS = (-1.13, 0.0)
+LINE_SPREADS = (-1.13, 0.0, math.pi / 2 - 1.13)
 LINE_POSES = tuple((back, math.radians(roll)) for back in (0.0, 0.02) for roll in (0.0, 15.0, -15.0))
 """Besides the annealed states, the demonstrated pose itself and its neighbours on the demonstrated approach are
-tried: (palm m behind the demonstrated palm, roll rad about the approach), each with spread 0 and 1.13 rad."""
+tried: (palm m behind the demonstrated palm, roll rad about the approach), each with spread 0, 1.13 and π/2 rad
+(fingers 1 and 2 face to face: on the scenes' bar handles often the only force closure at the demonstrated palm)."""
 OPEN_MIN_RAD = barrett.OPEN_FINGER_RAD - 0.75
 """How far the planner may open the fingers when the open hand touches the object model at a pose: 0.75 rad
 wider, as the simulated robot does (``tasks.simulate.hand.WIDER_OPENINGS_RAD``). Round 1 let them open down to
