@@ -31,6 +31,10 @@ CLOSE_STALL_RAD = 0.01
 CLOSE_SETTLE_S = 0.15
 """Simulated seconds for the fingers to settle on the object once every finger has stopped."""
 CLOSE_MAX_S = 2.0
+BREAKAWAY = False
+"""Whether a finger whose proximal link stopped curls its distal link on alone (the BH8's breakaway, which the
+grasp planner's closing models): off, since distal links curled round a cap's rim jammed its turn (bottle seed 11:
+68% instead of 100%) and it closed no grasp that failed without it."""
 
 
 def pregrasp_opening(planner: rb.Robot, scene_body: int, q_grasp: FloatArray, spread_rad: float) -> FloatArray:
@@ -69,25 +73,47 @@ def close_fingers(run: Session, target_dofs: FloatArray) -> None:
     so a finger stopped by the object squeezes it) with each finger's target ramped at ``CLOSE_RATE_RAD_S`` and
     never more than ``SQUEEZE_RAD`` ahead of the finger: a finger the object blocks stops and squeezes with its
     force limit while the others close on (the BH8 closes finger by finger; driven at the motors' full speed a
-    fingertip passed through a small cap in one physics step). Done when every finger is at its goal or has not
-    moved for ``CLOSE_STALL_TICKS`` ticks."""
+    fingertip passed through a small cap in one physics step). With ``BREAKAWAY``, a finger whose proximal link
+    the object stops short of its goal then curls its distal link on alone. Done when every finger is at its goal
+    or stopped (no motion for ``CLOSE_STALL_TICKS`` ticks)."""
     assert run.robot is not None
     tick_s = STEPS_PER_WAYPOINT * TIME_STEP_S
+    step = CLOSE_RATE_RAD_S * tick_s
     goal = target_dofs.copy()
     goal[1:] = np.minimum(goal[1:] + CLOSE_EXTRA_RAD, barrett.DOF_UPPER[1:])
     command = rb.hand_dofs(run.robot)
     command[0] = goal[0]
-    history = [rb.hand_dofs(run.robot)]
-    for _ in range(int(CLOSE_MAX_S / tick_s)):
-        now = history[-1]
-        command[1:] = np.minimum(np.minimum(command[1:] + CLOSE_RATE_RAD_S * tick_s, now[1:] + SQUEEZE_RAD), goal[1:])
-        rb.drive_hand(run.robot, command)
+    distal = barrett.coupled_distal(command[1:])
+    phase = [0, 0, 0]  # 0 proximal closing, 1 distal breakaway, 2 done
+    since = [0, 0, 0]  # tick at which the phase began
+    prox_hist = [rb.hand_dofs(run.robot)[1:]]
+    dist_hist = [rb.distal_angles(run.robot)]
+    for tick in range(1, int(CLOSE_MAX_S / tick_s) + 1):
+        prox_now, dist_now = prox_hist[-1], dist_hist[-1]
+        for f in range(3):
+            if phase[f] == 0:
+                command[f + 1] = min(command[f + 1] + step, prox_now[f] + SQUEEZE_RAD, goal[f + 1])
+                distal[f] = float(barrett.coupled_distal(command[f + 1]))
+            elif phase[f] == 1:
+                distal[f] = min(distal[f] + step, dist_now[f] + SQUEEZE_RAD, barrett.DISTAL_UPPER)
+        rb.drive_hand(run.robot, command, distal=distal)
         run.step(STEPS_PER_WAYPOINT)
-        history.append(rb.hand_dofs(run.robot))
-        if len(history) > CLOSE_STALL_TICKS:
-            moved = np.abs(history[-1][1:] - history[-1 - CLOSE_STALL_TICKS][1:])
-            if np.all((command[1:] >= goal[1:]) | (moved < CLOSE_STALL_RAD)):
-                break
+        prox_hist.append(rb.hand_dofs(run.robot)[1:])
+        dist_hist.append(rb.distal_angles(run.robot))
+        for f in range(3):
+            if tick - since[f] < CLOSE_STALL_TICKS:
+                continue
+            if phase[f] == 0 and command[f + 1] >= goal[f + 1]:
+                phase[f] = 2
+            elif phase[f] == 0 and abs(prox_hist[-1][f] - prox_hist[-1 - CLOSE_STALL_TICKS][f]) < CLOSE_STALL_RAD:
+                phase[f], since[f] = (1 if BREAKAWAY else 2), tick
+            elif phase[f] == 1 and (
+                abs(dist_hist[-1][f] - dist_hist[-1 - CLOSE_STALL_TICKS][f]) < CLOSE_STALL_RAD
+                or distal[f] >= barrett.DISTAL_UPPER
+            ):
+                phase[f] = 2
+        if all(p == 2 for p in phase):
+            break
     run.step(int(CLOSE_SETTLE_S / TIME_STEP_S))
 
 
@@ -140,5 +166,6 @@ def attach(run: Session, grasp_link: str | None, first_part: set[int]) -> str | 
     grasp_constraint(run, link)
     rest = rb.hand_dofs(run.robot)
     rest[1:] += SQUEEZE_RAD
-    rb.drive_hand(run.robot, rest, max_torque_nm=HOLD_TORQUE_NM)
+    distal = np.minimum(rb.distal_angles(run.robot) + SQUEEZE_RAD, barrett.DISTAL_UPPER)
+    rb.drive_hand(run.robot, rest, max_torque_nm=HOLD_TORQUE_NM, distal=distal)
     return None

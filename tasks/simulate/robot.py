@@ -178,11 +178,14 @@ def set_hand(robot: Robot, dofs: npt.ArrayLike) -> None:
     drive_hand(robot, dofs)
 
 
-def drive_hand(robot: Robot, dofs: npt.ArrayLike, max_torque_nm: float = HAND_MAX_TORQUE_NM) -> None:
-    """Position-control the hand towards (4,) DOFs, distal joints coupled, each joint force-limited."""
+def drive_hand(
+    robot: Robot, dofs: npt.ArrayLike, max_torque_nm: float = HAND_MAX_TORQUE_NM, distal: npt.ArrayLike | None = None
+) -> None:
+    """Position-control the hand towards (4,) DOFs, distal joints coupled (or at ``distal`` (3,) radians: the
+    BH8's breakaway), each joint force-limited."""
     import pybullet as pb  # noqa: PLC0415
 
-    q = barrett.joint_positions(dofs)
+    q = barrett.joint_positions(dofs, distal)
     joints = [j for j in range(9) if j != 6]
     pb.setJointMotorControlArray(
         robot.body,
@@ -207,6 +210,15 @@ def hand_dofs(robot: Robot) -> FloatArray:
     import pybullet as pb  # noqa: PLC0415
 
     idx = [HAND_OFFSET + j for j in (0, 1, 4, 7)]
+    states = pb.getJointStates(robot.body, idx, physicsClientId=robot.client)
+    return np.array([s[0] for s in states], dtype=np.float64)
+
+
+def distal_angles(robot: Robot) -> FloatArray:
+    """(3,) current distal joint angles of fingers 1, 2, 3, radians."""
+    import pybullet as pb  # noqa: PLC0415
+
+    idx = [HAND_OFFSET + d for _, d in barrett.FINGER_LINKS]
     states = pb.getJointStates(robot.body, idx, physicsClientId=robot.client)
     return np.array([s[0] for s in states], dtype=np.float64)
 
