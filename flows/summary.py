@@ -34,6 +34,11 @@ def summarise(entries: Sequence[EntryResult], report_html: str | None) -> RunSum
                 "previous": d.previous if d else None,
                 "simulation_success": sim.success if sim and sim.skipped is None else None,
                 "simulation_skipped": sim.skipped if sim else None,
+                "simulation_reached": [a / t if t else None for a, t in zip(sim.achieved, sim.target, strict=False)]
+                if sim and sim.skipped is None
+                else None,
+                "simulation_detail": sim.detail if sim else None,
+                "chain": e.extra.get("chain"),
                 "diff": (e.diff or {}).get("lines"),
                 "error": e.error,
             }

@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import Any
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -42,18 +43,24 @@ def run(args: argparse.Namespace) -> int:
 
     console = Console()
     table = Table(title=f"pbd demo - store {store}")
-    for col in ("recording", "descriptor", "chain file", "simulation"):
+    for col in ("recording", "descriptor", "chain", "simulation (extent reached)"):
         table.add_column(col)
     for row in summary["entries"]:
-        if row["error"] is not None:
-            sim = f"[red]failed: {row['error']}[/red]"
-        elif row["simulation_success"] is None:
-            sim = f"not simulated ({row['simulation_skipped'] or 'no scene'})"
-        else:
-            sim = "[green]success[/green]" if row["simulation_success"] else "[red]failed[/red]"
-        table.add_row(Path(row["source"]).name, row["descriptor"] or "-", row["path"] or "-", sim)
+        table.add_row(Path(row["source"]).name, row["descriptor"] or "-", row.get("chain") or "-", _simulation(row))
     console.print(table)
     console.print(f"descriptors: {store / 'descriptors'}")
     console.print(f"report:      {summary['report']}")
     sys.stdout.flush()
     return 0 if summary["counts"]["failed"] == 0 else 1
+
+
+def _simulation(row: dict[str, Any]) -> str:
+    """The simulation cell: success or failure, then the share of each primitive's extent the robot reached."""
+    if row["error"] is not None:
+        return f"[red]failed: {row['error']}[/red]"
+    if row["simulation_success"] is None:
+        return f"not simulated ({row['simulation_skipped'] or 'no scene'})"
+    reached = " / ".join(f"{r:.0%}" for r in row.get("simulation_reached") or [] if r is not None)
+    verdict = "[green]success[/green]" if row["simulation_success"] else "[red]failed[/red]"
+    detail = "" if row["simulation_success"] or not row.get("simulation_detail") else f": {row['simulation_detail']}"
+    return f"{verdict} {reached}{detail}" if reached else f"{verdict}{detail}"
