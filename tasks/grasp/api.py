@@ -34,7 +34,9 @@ HAND = "barrett"
 CROP_RADIUS_M = 0.15
 """Object points farther than this from the part nearest the seed palm are left out (the part to grasp)."""
 SHAKE_CHECKS = 5
-"""Force-closure candidates (in rank order) given the quick shake test before settling for the first."""
+"""Force-closure candidates near the demonstration (in rank order) given the quick shake test."""
+FALLBACK_CHECKS = 3
+"""Further candidates given the quick shake test when none of those holds (reached ones, then the rest)."""
 ROUNDS = 2
 """Annealing rounds tried before giving up on force closure (a second one only when the first found none)."""
 SEED_WINDOW_S = 1.0
@@ -154,6 +156,14 @@ def grasp_from_candidate(candidate: GraspCandidate) -> Grasp:
     )
 
 
+def _first_that_holds(model: ObjectModel, candidates: list[GraspCandidate], checks: int) -> GraspCandidate | None:
+    """The first of up to ``checks`` candidates whose grasp holds the part under ``QUICK_SHAKE``, else None."""
+    for cand in candidates[:checks]:
+        if shake_test(model, grasp_from_candidate(cand), QUICK_SHAKE).holds:
+            return cand
+    return None
+
+
 def plan_on_model(
     model: ObjectModel,
     seed_position: Vector3,
@@ -163,25 +173,42 @@ def plan_on_model(
     *,
     shake_checks: int = SHAKE_CHECKS,
 ) -> GraspCandidate:
-    """Best candidate on a built model from a palm seed: the force-closure grasps near the demonstration in order
-    of closeness, the first of up to ``shake_checks`` that holds under ``QUICK_SHAKE`` (else the first); without
-    a near force closure after ``ROUNDS`` rounds, the closest grasp near the demonstration (force_closure False:
-    a distant grasp would not be the demonstrated one), else the closest of all."""
+    """Best candidate on a built model from a palm seed, the first that holds under ``QUICK_SHAKE`` of: the
+    force-closure grasps near the demonstration in order of closeness (up to ``shake_checks``; a second annealing
+    round only when the first found none), then up to ``FALLBACK_CHECKS`` of the other grasps near it (when none
+    holds: the first near force closure). Without a near force closure (nothing within reach of the demonstrated
+    palm), up to ``FALLBACK_CHECKS`` of: the force closures reached further along the demonstrated approach, the
+    other near grasps, the other reached ones; when none holds, the first reached force closure, else the
+    closest grasp near the demonstration (force_closure False: a distant grasp would not be the demonstrated
+    one), else the closest of all."""
     pos, quat = _check_seed(seed_position, seed_quat_xyzw)
     seed_rot = Rotation.from_quat(quat).as_matrix()
     tried: list[GraspCandidate] = []
+    closure: list[GraspCandidate] = []
     for _ in range(ROUNDS):
         found = search(model, seed_rot, pos, rng, params)
         tried += found
         closure = [c for c in found if c.near and rank_tier(c.quality) == 0]
         if closure:
-            for cand in closure[:shake_checks]:
-                if shake_test(model, grasp_from_candidate(cand), QUICK_SHAKE).holds:
-                    return cand
-            return closure[0]
+            break
     if not tried:
         msg = "no collision-free grasp found near the seed pose"
         raise GraspError(msg)
+    others = sorted((c for c in tried if c.near and rank_tier(c.quality) != 0), key=lambda c: c.closeness)
+    if closure:
+        held = _first_that_holds(model, closure, shake_checks) or _first_that_holds(model, others, FALLBACK_CHECKS)
+        return held or closure[0]
+    reached = sorted(
+        (c for c in tried if c.reach and not c.near and rank_tier(c.quality) == 0), key=lambda c: c.closeness
+    )
+    further = sorted(
+        (c for c in tried if c.reach and not c.near and rank_tier(c.quality) != 0), key=lambda c: c.closeness
+    )
+    held = _first_that_holds(model, reached + others + further, FALLBACK_CHECKS)
+    if held is not None:
+        return held
+    if reached:
+        return reached[0]
     return min(tried, key=lambda c: (not c.near, c.closeness, rank_tier(c.quality)))
 
 

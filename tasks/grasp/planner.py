@@ -90,8 +90,9 @@ class PlannerParams:
 @dataclass(frozen=True)
 class GraspCandidate:
     """A grasp tried in pybullet: state x (5,), palm pose (world), closed joints (7,), quality, ranking cost,
-    its offset (m) from the demonstrated approach and angle (rad) from the demonstrated palm, and whether both are
-    within the planner's neighbourhood."""
+    its offset (m) from the demonstrated approach and angle (rad) from the demonstrated palm, whether it lies
+    within the planner's neighbourhood (``near``), and whether it does but for having advanced further along the
+    demonstrated approach (``reach``: the palm moved on towards an object the demonstrated palm stops short of)."""
 
     state: FloatArray
     position: Vector3
@@ -103,6 +104,7 @@ class GraspCandidate:
     offset_m: float
     angle_rad: float
     near: bool
+    reach: bool = False
 
 
 @dataclass(frozen=True)
@@ -224,6 +226,12 @@ def is_near(offset: DemoOffset, params: PlannerParams) -> bool:
     )
 
 
+def is_reach(offset: DemoOffset, params: PlannerParams) -> bool:
+    """Whether a grasp lies off the demonstrated approach by at most the neighbourhood's offset and angle, however
+    far along it (the approach to contact bounds the advance: the palm stops at the object)."""
+    return offset.lateral_m <= params.near_position_m and offset.angle_rad <= params.near_angle_rad
+
+
 def _free_pregrasp(  # noqa: PLR0917 -- private helper
     client_id: int, hand: int, obj: int, rot: FloatArray, pos: Vector3, quat: FloatArray, spread: float
 ) -> tuple[Vector3, FloatArray] | None:
@@ -334,6 +342,7 @@ def search(
                     offset.lateral_m,
                     offset.angle_rad,
                     is_near(offset, prm),
+                    is_reach(offset, prm),
                 )
             )
     finally:

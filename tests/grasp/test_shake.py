@@ -38,4 +38,4 @@ def test_wrapping_grasp_holds(box: ObjectModel) -> None:
 def test_open_hand_drops(box: ObjectModel) -> None:
     result = shake_test(box, _palm_on_top(-1.13, -1.37), ShakeParams(close=False))
     assert not result.holds
-    assert result.max_shift_m > 0.05  # it fell
+    assert result.max_shift_m > ShakeParams().max_shift_m  # it fell (the test stops once past the tolerance)
