@@ -36,7 +36,7 @@ from tasks.recording.writer import RecordingWriter  # noqa: E402
 from tasks.store import Store  # noqa: E402
 from tasks.synth.paths import truth_path  # noqa: E402
 from tasks.synth.record import synthesize  # noqa: E402
-from tasks.synth.score import ChainScore, score_chain  # noqa: E402
+from tasks.synth.score import ChainScore, align_kinds, score_chain  # noqa: E402
 from tests.learn.synthetic import SCENES, START_NS, TruthPrimitive, make_demo, write_recording  # noqa: E402
 
 STURM = REPO.parent / "shared" / "real" / "sturm" / "mechanisms_iros_2010"
@@ -58,31 +58,12 @@ class Errors:
     seconds: float = 0.0
 
 
-def _align(got: list[str], want: list[str]) -> list[tuple[int, int]]:
-    """Longest common subsequence of two kind sequences: matched index pairs."""
-    n, m = len(got), len(want)
-    table = np.zeros((n + 1, m + 1), dtype=np.int64)
-    for i in range(n - 1, -1, -1):
-        for j in range(m - 1, -1, -1):
-            table[i, j] = table[i + 1, j + 1] + 1 if got[i] == want[j] else max(table[i + 1, j], table[i, j + 1])
-    pairs, i, j = [], 0, 0
-    while i < n and j < m:
-        if got[i] == want[j]:
-            pairs.append((i, j))
-            i, j = i + 1, j + 1
-        elif table[i + 1, j] >= table[i, j + 1]:
-            i += 1
-        else:
-            j += 1
-    return pairs
-
-
 def _score(chain: tuple[Primitive, ...], truth: tuple[TruthPrimitive, ...], err: Errors) -> None:
     kinds: list[str] = [p.kind for p in chain]
     want = [t.kind for t in truth]
     err.chains += 1
     err.chains_right += kinds == want
-    for i, j in _align(kinds, want):
+    for i, j in align_kinds(kinds, want):
         p, t = chain[i], truth[j]
         d = np.asarray(p.dir)
         err.direction_deg.append(float(np.degrees(np.arccos(np.clip(np.dot(d, t.dir), -1.0, 1.0)))))
@@ -176,15 +157,9 @@ SYNTH_SCENES = ("microwave", "sliding-door", "door", "bottle")
 
 
 @dataclass
-class SynthErrors:
-    """Chains right and per-primitive errors of one method over ``pbd synth`` recordings."""
+class SynthErrors(Errors):
+    """Chains right and per-primitive errors of one method over ``pbd synth`` recordings, with boundaries."""
 
-    chains_right: int = 0
-    chains: int = 0
-    direction_deg: list[float] = field(default_factory=list)
-    position_mm: list[float] = field(default_factory=list)
-    angle_deg: list[float] = field(default_factory=list)
-    distance_mm: list[float] = field(default_factory=list)
     boundary_s: list[float] = field(default_factory=list)
     wrong: list[str] = field(default_factory=list)
 

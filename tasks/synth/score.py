@@ -33,8 +33,8 @@ class ChainScore:
     errors: tuple[PrimitiveError, ...]
 
 
-def _align(got: list[str], want: list[str]) -> list[tuple[int, int]]:
-    """Longest common subsequence of two kind sequences: matched index pairs."""
+def align_kinds(got: list[str], want: list[str]) -> list[tuple[int, int]]:
+    """Longest common subsequence of two kind sequences: matched index pairs (learned index, true index)."""
     n, m = len(got), len(want)
     table = np.zeros((n + 1, m + 1), dtype=np.int64)
     for i in range(n - 1, -1, -1):
@@ -62,7 +62,7 @@ def score_chain(learned: list[dict[str, Any]], truth: dict[str, Any]) -> ChainSc
     got_kinds = [str(p["kind"]) for p in learned]
     want_kinds = [str(p["kind"]) for p in want]
     errors = []
-    for i, j in _align(got_kinds, want_kinds):
+    for i, j in align_kinds(got_kinds, want_kinds):
         p, t = learned[i], want[j]
         d, td = np.asarray(p["dir"], dtype=np.float64), np.asarray(t["dir"], dtype=np.float64)
         direction = float(np.degrees(np.arccos(np.clip(np.dot(d, td), -1.0, 1.0))))
