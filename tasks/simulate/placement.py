@@ -19,7 +19,7 @@ import numpy as np
 from tasks.arrays import FloatArray
 from tasks.errors import SimulationError
 from tasks.simulate.ik import solve_ik
-from tasks.simulate.robot import ARM_JOINTS, ARM_LOWER, ARM_REST, ARM_UPPER, Robot
+from tasks.simulate.robot import ARM_JOINTS, ARM_LOWER, ARM_REST, ARM_UPPER, FLANGE_TO_PALM_M, Robot
 from tasks.simulate.waypoints import angle_between_quats, approach_axis, matrix_from_axis_angle, quat_from_matrix
 
 RADII_M: tuple[float, ...] = (0.60, 0.50, 0.72, 0.40, 0.85)
@@ -36,6 +36,12 @@ SHOULDER_HEIGHT_M = 0.36
 """iiwa axis 2 above the base, metres."""
 MAX_REACH_M = 0.82 + 0.205
 """Shoulder to wrist (0.42 + 0.40 m) plus wrist to palm (0.126 m flange + 0.08 m palm): no key farther than this."""
+WRIST_TO_PALM_M = 0.081 + FLANGE_TO_PALM_M
+"""The iiwa's wrist centre (where axes 5, 6 and 7 meet; link 6's frame) to the palm frame along the approach, m."""
+WRIST_REACH_M: tuple[float, float] = (0.41 - 0.012, 0.82 + 0.012)
+"""Shoulder (link 1's frame, where axes 1 and 2 meet) to wrist centre: at most upper arm plus forearm (0.42 +
+0.40 m, elbow straight), at least 0.41 m (elbow at its 120° limit); widened by what IK's 3 mm / 2° tolerance lets
+the wrist centre move (12 mm). A key outside this cannot be reached: a necessary test, no IK needed."""
 PART_CLEARANCE_M = 0.15
 """The base must stay this far (horizontally) from the region a rotating part sweeps (axis foot to palm)."""
 BASE_LINKS: tuple[int, ...] = (-1, 0, 1, 2, 3)
@@ -177,6 +183,20 @@ def reach_keys(
     return np.array(path), comfortable
 
 
+def wrists_within_reach(robot: Robot, keys: Sequence[KeyPose]) -> bool:
+    """Whether every key's wrist centre lies within ``WRIST_REACH_M`` of the shoulder at the robot's current base
+    (a cheap necessary condition for ``reach_keys``)."""
+    import pybullet as pb  # noqa: PLC0415
+
+    shoulder = np.array(pb.getLinkState(robot.body, 1, physicsClientId=robot.client)[4], dtype=np.float64)
+    lo, hi = WRIST_REACH_M
+    for key in keys:
+        d = float(np.linalg.norm(key.position - WRIST_TO_PALM_M * approach_axis(key.quat) - shoulder))
+        if not lo <= d <= hi:
+            return False
+    return True
+
+
 def _farthest_key_reached(robot: Robot, keys: Sequence[KeyPose], base: FloatArray, seeds: list[FloatArray]) -> bool:
     """A cheap screen of a candidate base: does IK from some seed reach the key farthest from the shoulder?"""
     shoulder = base + np.array([0.0, 0.0, SHOULDER_HEIGHT_M])
@@ -206,6 +226,8 @@ def _sweep(
         if not clear_of_parts(base, keys):
             continue
         pb.resetBasePositionAndOrientation(robot.body, base.tolist(), quat.tolist(), physicsClientId=robot.client)
+        if not wrists_within_reach(robot, keys):
+            continue
         if screen and not _farthest_key_reached(robot, keys, base, seeds):
             continue
         for seed in seeds:
