@@ -20,7 +20,7 @@ from tasks.arrays import FloatArray
 from tasks.errors import SimulationError
 from tasks.simulate.ik import solve_ik
 from tasks.simulate.robot import ARM_JOINTS, ARM_LOWER, ARM_REST, ARM_UPPER, FLANGE_TO_PALM_M, Robot
-from tasks.simulate.waypoints import angle_between_quats, approach_axis, matrix_from_axis_angle, quat_from_matrix
+from tasks.simulate.waypoints import angle_between_quats, approach_axis
 
 RADII_M: tuple[float, ...] = (0.60, 0.50, 0.72, 0.40, 0.85)
 """Horizontal distances of the base from the palm path's centre, metres (the iiwa reaches 0.82 m)."""
@@ -101,12 +101,12 @@ def candidate_bases(keys: Sequence[KeyPose], floor_z: float = 0.0) -> list[tuple
     grid = [(r, h, y) for r in RADII_M for h, y in coarse]
     grid += [(r, h, y) for r in RADII_M for h, y in finer if (h, y) not in coarse]
     for radius, height, yaw in grid:
-        bearing = matrix_from_axis_angle([0.0, 0.0, 1.0], math.radians(yaw)) @ behind
+        c, s = math.cos(math.radians(yaw)), math.sin(math.radians(yaw))
+        bearing = np.array([c * behind[0] - s * behind[1], s * behind[0] + c * behind[1], 0.0])
         base = centre + radius * bearing
         base[2] = max(floor_z, centre[2] - height)
         facing = math.atan2(-bearing[1], -bearing[0])
-        quat = quat_from_matrix(matrix_from_axis_angle([0.0, 0.0, 1.0], facing))
-        out.append((base, quat))
+        out.append((base, np.array([0.0, 0.0, math.sin(facing / 2.0), math.cos(facing / 2.0)])))
     return out
 
 
