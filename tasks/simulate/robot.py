@@ -93,17 +93,28 @@ def robot_urdf_text() -> str:
 
 
 def robot_urdf(cache_dir: Path | None = None) -> Path:
-    """Write the combined URDF once to a content-addressed cache path (``$PBD_CACHE`` or tmp) and return it."""
-    text = robot_urdf_text()
-    digest = hashlib.sha256(text.encode()).hexdigest()[:12]
+    """Write the combined URDF once to a content-addressed cache path (``$PBD_CACHE`` or tmp) and return it; its
+    arm collides as the hulls of its meshes (``hulls.py``: the same geometry, loaded twice as fast)."""
+    from tasks.simulate.hulls import with_hull_collisions  # noqa: PLC0415 - scipy only when the robot is built
+
     root = cache_dir or Path(os.environ.get("PBD_CACHE", Path(tempfile.gettempdir()) / "pbd-cache"))
+    known = _URDF_PATHS.get(root)
+    if known is not None and known.exists():
+        return known
+    text = with_hull_collisions(robot_urdf_text(), root / "simulate" / "hulls")
+    digest = hashlib.sha256(text.encode()).hexdigest()[:12]
     path = root / "simulate" / f"iiwa_barrett-{digest}.urdf"
     if not path.exists():
         path.parent.mkdir(parents=True, exist_ok=True)
         with tempfile.NamedTemporaryFile("w", dir=path.parent, delete=False, suffix=".tmp") as tmp:
             tmp.write(text)
         Path(tmp.name).replace(path)
+    _URDF_PATHS[root] = path
     return path
+
+
+_URDF_PATHS: dict[Path, Path] = {}
+"""Cache root -> the combined URDF written there (this process)."""
 
 
 @dataclass(frozen=True)
