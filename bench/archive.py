@@ -1,6 +1,6 @@
 """Benchmark of the reprocessing flow against a local Prefect server (SQLite, 127.0.0.1).
 
-Builds an archive of synthetic recordings (``tasks.synth``), then measures in one run:
+Builds an archive of simulated demonstrations (``pbd synth``, the four scenes), then measures in one run:
 
 1. first run of ``reprocess-archive`` on an empty store,
 2. an unchanged re-run (target: under 10% of the first; every stage a cache hit),
@@ -78,21 +78,19 @@ def local_server(home: Path) -> Iterator[str]:
 
 
 def make_archive(folder: Path, count: int) -> list[Path]:
-    """``count`` synthetic demonstrations: the synth stage's scenes when it is built, else door openings
-    (three markers, wrist, object model) of different angles from ``tests/flows/recordings.py``."""
-    try:
-        from tasks.synth.samples import write_archive  # type: ignore[import-not-found]
-    except ImportError:
-        from tests.flows.recordings import write_door_recording
+    """``count`` simulated demonstrations (``pbd synth``): the four built-in scenes in turn, seed ``i``, MCAP, ROS 1
+    bag and rosbag2 in turn; each names its scene instance, so every stage runs, simulation included."""
+    from tasks.scenes.catalog import SCENE_NAMES
+    from tasks.synth.record import synthesize
 
-        formats = ("mcap", "bag", "rosbag2")
-        paths = []
-        for i in range(count):
-            fmt = formats[i % 3]
-            name = f"door-{i:02d}" + ("" if fmt == "rosbag2" else f".{fmt}")
-            paths.append(write_door_recording(folder / name, fmt, 0.6 + 0.05 * i, seed=i))
-        return paths
-    return list(write_archive(folder, count))
+    formats = ("mcap", "bag", "rosbag2")
+    paths = []
+    for i in range(count):
+        fmt = formats[i % len(formats)]
+        scene = SCENE_NAMES[i % len(SCENE_NAMES)]
+        name = f"{scene}-{i:02d}" + ("" if fmt == "rosbag2" else f".{fmt}")
+        paths.append(synthesize(scene, i, folder / name, fmt))
+    return paths
 
 
 def stage_counts(flow_run_id: str, expected: int) -> dict[str, Counter[str]]:
@@ -144,12 +142,13 @@ def process_directly(source: Path, store_root: Path, name: str, params: dict[str
     import numpy as np
 
     from tasks.diff.core import diff_descriptors
-    from tasks.errors import SceneError
+    from tasks.errors import SceneError, SimulationError
     from tasks.ingest.api import ingest_recording
     from tasks.learn.api import learn_descriptor
     from tasks.learn.params import LearnParams
     from tasks.recording.load import load_recording
     from tasks.simulate.api import simulate_descriptor
+    from tasks.simulate.instance import instance_from_meta
     from tasks.store import Store
 
     store = Store(store_root)
@@ -159,8 +158,10 @@ def process_directly(source: Path, store_root: Path, name: str, params: dict[str
     if rec.object_model is not None:
         store.put_model(rec.object_model)
     put = store.put_descriptor(desc)
-    with contextlib.suppress(SceneError):  # objects without a built-in scene are not simulated, as in the flow
-        simulate_descriptor(desc)
+    scene, seed = instance_from_meta(rec.meta)  # the instance the recording names, as in the flow
+    if scene is not None:
+        with contextlib.suppress(SceneError, SimulationError):  # a misfit is a failed simulation, as in the flow
+            simulate_descriptor(desc, scene=scene, rng=np.random.default_rng(seed) if seed is not None else None)
     if put.created and put.version > 1:
         diff_descriptors(store.load(f"{put.name}@v{put.version - 1}"), desc)
 
@@ -229,7 +230,7 @@ def main() -> int:
             flow_best = min(first, cold2)
             from prefect.logging.handlers import APILogHandler
 
-            APILogHandler.flush()  # before the server stops
+            APILogHandler().flush()  # send the queued run logs before the server stops
         print()
         print(f"{'run':<34} {'seconds':>8} {'% of first':>10}  stage runs (executed/cached)")
         for label, secs, counts in rows:
