@@ -113,7 +113,8 @@ def screw_twist(
     k = np.asarray(axis_dir, dtype=np.float64)
     k = k / np.linalg.norm(k)
     omega = angle_rad * k
-    v = np.cross(omega, position - np.asarray(axis_point, dtype=np.float64))
+    r = position - np.asarray(axis_point, dtype=np.float64)
+    v = [omega[1] * r[2] - omega[2] * r[1], omega[2] * r[0] - omega[0] * r[2], omega[0] * r[1] - omega[1] * r[0]]
     return np.concatenate([v, omega])
 
 
