@@ -23,6 +23,7 @@ from tasks.simulate.robot import (
     PALM_LINK,
     Robot,
     palm_pose,
+    reset_arm,
 )
 from tasks.simulate.waypoints import angle_between_quats
 
@@ -73,8 +74,7 @@ def solve_ik(
     ranges = [u - lo for lo, u in zip(lower, upper, strict=True)]
     best: IkSolution | None = None
     for _ in range(rounds):
-        for joint, angle in zip(ARM_JOINTS, q, strict=True):
-            pb.resetJointState(robot.body, joint, float(angle), 0.0, physicsClientId=robot.client)
+        reset_arm(robot, q)
         out = pb.calculateInverseKinematics(
             robot.body,
             PALM_LINK,
@@ -89,8 +89,7 @@ def solve_ik(
             physicsClientId=robot.client,
         )
         q = np.clip(np.array(out[: len(ARM_JOINTS)], dtype=np.float64), ARM_LOWER, ARM_UPPER)
-        for joint, angle in zip(ARM_JOINTS, q, strict=True):
-            pb.resetJointState(robot.body, joint, float(angle), 0.0, physicsClientId=robot.client)
+        reset_arm(robot, q)
         p, r = palm_pose(robot)
         sol = IkSolution(q, float(np.linalg.norm(p - target_p)), angle_between_quats(r, target_q))
         if best is None or sol.position_error_m + 0.1 * sol.angle_error_rad < (
@@ -100,6 +99,5 @@ def solve_ik(
         if sol.ok:
             break
     assert best is not None
-    for joint, angle in zip(ARM_JOINTS, best.q, strict=True):
-        pb.resetJointState(robot.body, joint, float(angle), 0.0, physicsClientId=robot.client)
+    reset_arm(robot, best.q)
     return best

@@ -155,12 +155,23 @@ def load_robot(client: int, base_position: npt.ArrayLike, base_quat_xyzw: npt.Ar
 
 def set_arm(robot: Robot, q: npt.ArrayLike) -> None:
     """Reset (kinematically) the arm's seven joints to ``q`` radians and hold them there."""
-    import pybullet as pb  # noqa: PLC0415
 
     angles = np.asarray(q, dtype=np.float64)
-    for joint, angle in zip(ARM_JOINTS, angles, strict=True):
-        pb.resetJointState(robot.body, joint, float(angle), 0.0, physicsClientId=robot.client)
+    reset_arm(robot, angles)
     drive_arm(robot, angles)
+
+
+def reset_arm(robot: Robot, q: npt.ArrayLike) -> None:
+    """Reset (kinematically, at rest) the arm's seven joints to ``q`` radians in one pybullet call."""
+    import pybullet as pb  # noqa: PLC0415
+
+    pb.resetJointStatesMultiDof(
+        robot.body,
+        list(ARM_JOINTS),
+        targetValues=[[float(v)] for v in np.asarray(q, dtype=np.float64)],
+        targetVelocities=[[0.0]] * len(ARM_JOINTS),
+        physicsClientId=robot.client,
+    )
 
 
 def drive_arm(robot: Robot, q: npt.ArrayLike) -> None:
