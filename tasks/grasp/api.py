@@ -14,7 +14,9 @@ planning, and ``demo_offset_m`` / ``demo_angle_rad``: how far the palm lies off 
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -25,7 +27,7 @@ from schemas.descriptor import Grasp
 from tasks.arrays import FloatArray, Points, Vector3
 from tasks.errors import GraspError
 from tasks.grasp import barrett
-from tasks.grasp.object_model import ObjectModel, build_object_model, check_object_points, crop_points
+from tasks.grasp.object_model import ObjectModel, build_object_model, check_object_points, convex_parts, crop_points
 from tasks.grasp.planner import GraspCandidate, PlannerParams, rank_tier, search
 from tasks.grasp.shake import QUICK_SHAKE, shake_test
 from tasks.recording.load import PoseTrack
@@ -35,10 +37,15 @@ CROP_RADIUS_M = 0.15
 """Object points farther than this from the part nearest the seed palm are left out (the part to grasp)."""
 SHAKE_CHECKS = 5
 """Force-closure candidates near the demonstration (in rank order) given the quick shake test."""
-FALLBACK_CHECKS = 3
+FALLBACK_CHECKS = 5
 """Further candidates given the quick shake test when none of those holds (reached ones, then the rest)."""
 ROUNDS = 2
-"""Annealing rounds tried before giving up on force closure (a second one only when the first found none)."""
+"""Annealing rounds tried while no near force closure holds (the second on the model's pieces drawn anew)."""
+REDRAWS = 4
+"""Then rounds of the demonstrated approach's poses alone (no annealing, about 0.2 s each), each on pieces drawn
+anew: which of them close into force closure on a scan depends on how its convex pieces fall."""
+SHAKE_BUDGET = 6
+"""Shake tests one plan may run on near force closures (0.05-0.6 s each; ``FALLBACK_CHECKS`` more after them)."""
 SEED_WINDOW_S = 1.0
 """The seed is the stillest wrist pose within this long before the first primitive's start (``stillest_time_ns``)."""
 
@@ -156,12 +163,34 @@ def grasp_from_candidate(candidate: GraspCandidate) -> Grasp:
     )
 
 
-def _first_that_holds(model: ObjectModel, candidates: list[GraspCandidate], checks: int) -> GraspCandidate | None:
-    """The first of up to ``checks`` candidates whose grasp holds the part under ``QUICK_SHAKE``, else None."""
-    for cand in candidates[:checks]:
-        if shake_test(model, grasp_from_candidate(cand), QUICK_SHAKE).holds:
-            return cand
-    return None
+Tried = tuple[GraspCandidate, ObjectModel]
+
+
+class _ShakeBudget:
+    """Quick shake tests left for one plan (``SHAKE_BUDGET``)."""
+
+    def __init__(self, count: int) -> None:
+        """Allow ``count`` tests."""
+        self.left = count
+
+    def first_that_holds(self, candidates: list[Tried], checks: int) -> GraspCandidate | None:
+        """The first of up to ``checks`` (candidate, model) pairs whose grasp holds under ``QUICK_SHAKE``."""
+        for cand, model in candidates[: min(checks, self.left)]:
+            self.left -= 1
+            if shake_test(model, grasp_from_candidate(cand), QUICK_SHAKE).holds:
+                return cand
+        return None
+
+
+def redecomposed(model: ObjectModel, rng: np.random.Generator) -> ObjectModel:
+    """The model with its convex pieces drawn anew (k-means from ``rng``); a primitive model as it is. Which
+    grasps close into force closure on a scan depends on how its pieces fall (the door's lever: near force
+    closures with some draws, none with others)."""
+    if model.primitive is not None or not model.parts:
+        return model
+    return ObjectModel(
+        model.points, model.normals, model.center, model.radius, convex_parts(model.points, model.normals, rng)
+    )
 
 
 def plan_on_model(
@@ -174,42 +203,51 @@ def plan_on_model(
     shake_checks: int = SHAKE_CHECKS,
 ) -> GraspCandidate:
     """Best candidate on a built model from a palm seed, the first that holds under ``QUICK_SHAKE`` of: the
-    force-closure grasps near the demonstration in order of closeness (up to ``shake_checks``; a second annealing
-    round only when the first found none), then up to ``FALLBACK_CHECKS`` of the other grasps near it (when none
-    holds: the first near force closure). Without a near force closure (nothing within reach of the demonstrated
-    palm), up to ``FALLBACK_CHECKS`` of: the force closures reached further along the demonstrated approach, the
-    other near grasps, the other reached ones; when none holds, the first reached force closure, else the
-    closest grasp near the demonstration (force_closure False: a distant grasp would not be the demonstrated
-    one), else the closest of all."""
+    force-closure grasps near the demonstration in order of closeness (up to ``shake_checks`` a round and
+    ``SHAKE_BUDGET`` in all; while none holds, ``ROUNDS`` annealing rounds then ``REDRAWS`` rounds of the
+    demonstrated approach's poses, each after the first on the model's pieces drawn anew, ``redecomposed``),
+    then up to ``FALLBACK_CHECKS`` of the other grasps near it. When none holds: the first near force closure.
+    Without any near force closure (nothing within reach of the demonstrated palm), up to ``FALLBACK_CHECKS``
+    of: the force closures reached further along the demonstrated approach, the other near grasps, the other
+    reached ones; when none holds, the first reached force closure, else the closest grasp near the
+    demonstration (force_closure False: a distant grasp would not be the demonstrated one), else the closest."""
     pos, quat = _check_seed(seed_position, seed_quat_xyzw)
     seed_rot = Rotation.from_quat(quat).as_matrix()
-    tried: list[GraspCandidate] = []
-    closure: list[GraspCandidate] = []
-    for _ in range(ROUNDS):
-        found = search(model, seed_rot, pos, rng, params)
+    budget = _ShakeBudget(SHAKE_BUDGET)
+    tried: list[Tried] = []
+    closure: list[Tried] = []
+    prm = params or PlannerParams()
+    for k in range(ROUNDS + REDRAWS):
+        if k == ROUNDS and not tried:
+            break  # the hand fits nowhere near the seed: redrawing the pieces would only find grazing pockets
+        variant = model if k == 0 else redecomposed(model, rng)
+        round_prm = prm if k < ROUNDS else dataclasses.replace(prm, chains=0)
+        found = [(c, variant) for c in search(variant, seed_rot, pos, rng, round_prm)]
         tried += found
-        closure = [c for c in found if c.near and rank_tier(c.quality) == 0]
-        if closure:
-            break
+        new = [t for t in found if t[0].near and rank_tier(t[0].quality) == 0]
+        closure += new
+        held = budget.first_that_holds(new, shake_checks)
+        if held is not None:
+            return held
     if not tried:
         msg = "no collision-free grasp found near the seed pose"
         raise GraspError(msg)
-    others = sorted((c for c in tried if c.near and rank_tier(c.quality) != 0), key=lambda c: c.closeness)
+
+    def ordered(keep: Callable[[GraspCandidate], bool]) -> list[Tried]:
+        return sorted((t for t in tried if keep(t[0])), key=lambda t: t[0].closeness)
+
+    budget = _ShakeBudget(FALLBACK_CHECKS)
+    others = ordered(lambda c: c.near and rank_tier(c.quality) != 0)
     if closure:
-        held = _first_that_holds(model, closure, shake_checks) or _first_that_holds(model, others, FALLBACK_CHECKS)
-        return held or closure[0]
-    reached = sorted(
-        (c for c in tried if c.reach and not c.near and rank_tier(c.quality) == 0), key=lambda c: c.closeness
-    )
-    further = sorted(
-        (c for c in tried if c.reach and not c.near and rank_tier(c.quality) != 0), key=lambda c: c.closeness
-    )
-    held = _first_that_holds(model, reached + others + further, FALLBACK_CHECKS)
+        return budget.first_that_holds(others, FALLBACK_CHECKS) or closure[0][0]
+    reached = ordered(lambda c: c.reach and not c.near and rank_tier(c.quality) == 0)
+    further = ordered(lambda c: c.reach and not c.near and rank_tier(c.quality) != 0)
+    held = budget.first_that_holds(reached + others + further, FALLBACK_CHECKS)
     if held is not None:
         return held
     if reached:
-        return reached[0]
-    return min(tried, key=lambda c: (not c.near, c.closeness, rank_tier(c.quality)))
+        return reached[0][0]
+    return min((t[0] for t in tried), key=lambda c: (not c.near, c.closeness, rank_tier(c.quality)))
 
 
 def plan_grasp(

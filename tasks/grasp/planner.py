@@ -287,8 +287,9 @@ def search(
     rng: np.random.Generator,
     params: PlannerParams | None = None,
 ) -> list[GraspCandidate]:
-    """Anneal from the seed, try the best distinct states and the demonstrated pose in pybullet; all candidates:
-    near the demonstration first, force closure first, then by closeness to the demonstration."""
+    """Anneal from the seed (``params.chains`` chains; none: only the poses on the demonstrated approach), try the
+    best distinct states and the demonstrated pose in pybullet; all candidates: near the demonstration first,
+    force closure first, then by closeness to the demonstration."""
     prm = params or PlannerParams()
     space = ApproachSpace(seed_rot, seed_pos, pivot_distance(model, seed_rot, seed_pos, prm.max_pivot_m))
     lim = prm.amplitude_limit
@@ -304,11 +305,15 @@ def search(
     d0 = float(np.clip(space.pivot_m, *prm.distance_range_m))
     starts = [np.array([a1, -1.0, d0, 0.0, 0.0]) for a1 in CHAIN_SPREADS[: prm.chains]]
     traces = [anneal(energy, s, lower, upper, jump, prm.steps, rng, prm.schedule) for s in starts]
-    pooled = AnnealTrace(np.concatenate([t.states for t in traces]), np.concatenate([t.energies for t in traces]), 0)
-    spreads = np.array([barrett.dofs_from_eigengrasps(float(a), 0.0)[0] for a in pooled.states[:, 0]])
-    per_bin = max(1, prm.candidates // (len(SPREAD_BINS) - 1))
     picks: list[tuple[FloatArray, float]] = []
-    for lo, hi in itertools.pairwise(SPREAD_BINS):
+    spread_bins = SPREAD_BINS if traces else ()  # chains=0: the demonstrated approach's poses only
+    if traces:
+        pooled = AnnealTrace(
+            np.concatenate([t.states for t in traces]), np.concatenate([t.energies for t in traces]), 0
+        )
+        spreads = np.array([barrett.dofs_from_eigengrasps(float(a), 0.0)[0] for a in pooled.states[:, 0]])
+    per_bin = max(1, prm.candidates // (len(SPREAD_BINS) - 1))
+    for lo, hi in itertools.pairwise(spread_bins):
         sel = np.flatnonzero((spreads >= lo) & (spreads < hi))
         sub = AnnealTrace(pooled.states[sel], pooled.energies[sel], 0)
         picks += [(sub.states[i], float(sub.energies[i])) for i in _select(sub, per_bin, upper - lower)]
