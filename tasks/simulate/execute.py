@@ -270,14 +270,13 @@ def _execute(run: Session, desc: Descriptor, grasp_mode: GraspMode, wall0: float
     q0 = {j.index: run.joint_value(j.index)[0] for j in joints}
     keys = key_poses(desc, matches, by_name, q0)
 
-    # Base placement with the robot in the physics client, kinematically (nothing steps until it is placed; one
-    # robot loaded instead of a second client with its own copy of the scene and robot).
-    planner = rb.load_robot(run.sim, [0.0, 0.0, -5.0], [0.0, 0.0, 0.0, 1.0])
-    placement = place_base(planner, run.scene, keys, run.setup.floor_z)
+    # Base placement in the planning client (scene + robot, kinematic only).
+    run.planner = rb.load_robot(run.plan, [0.0, 0.0, -5.0], [0.0, 0.0, 0.0, 1.0])
+    placement = place_base(run.planner, run.plan_scene, keys, run.setup.floor_z)
     pb.resetBasePositionAndOrientation(
-        planner.body, placement.base_position.tolist(), placement.base_quat.tolist(), physicsClientId=run.sim
+        run.planner.body, placement.base_position.tolist(), placement.base_quat.tolist(), physicsClientId=run.plan
     )
-    run.robot = replace(planner, base_position=placement.base_position, base_quat=placement.base_quat)
+    run.robot = rb.load_robot(run.sim, placement.base_position, placement.base_quat)
     centre = np.mean([k.position for k in keys], axis=0)
     run.camera_target = 0.6 * centre + 0.4 * placement.base_position
     to_base = placement.base_position - centre
@@ -287,7 +286,7 @@ def _execute(run: Session, desc: Descriptor, grasp_mode: GraspMode, wall0: float
 
     # Pre-grasp: arm at the first key pose, hand open at the grasp's spread.
     target_dofs = barrett.dofs_from_eigengrasps(*desc.grasp.eigengrasps)
-    open_dofs = pregrasp_opening(run.robot, run.scene, placement.q_path[1], float(target_dofs[0]))
+    open_dofs = pregrasp_opening(run.planner, run.plan_scene, placement.q_path[1], float(target_dofs[0]))
     loop0, loop_cpu0 = time.perf_counter(), time.process_time()
     run.q = placement.q_path[0].copy()
     rb.set_arm(run.robot, run.q)

@@ -39,8 +39,8 @@ grasp planner's closing models): off, since distal links curled round a cap's ri
 
 def pregrasp_opening(planner: rb.Robot, scene_body: int, q_grasp: FloatArray, spread_rad: float) -> FloatArray:
     """(4,) DOFs of the open hand to approach with: the fingers ``OPEN_BEYOND_STRAIGHT_RAD`` past pointing along
-    the approach, or opened further (``WIDER_OPENINGS_RAD``) when at the grasp pose (arm at ``q_grasp``, set
-    kinematically) a finger would already be inside the scene there (a wide cap: the fingertips land on its rim
+    the approach, or opened further (``WIDER_OPENINGS_RAD``) when at the grasp pose (arm at ``q_grasp`` in the
+    planning client) a finger would already be inside the scene there (a wide cap: the fingertips land on its rim
     and slide off outside it), unless no opening is clear."""
     import pybullet as pb  # noqa: PLC0415
 

@@ -2,8 +2,8 @@
 
 pybullet's ``calculateInverseKinematics`` starts from the body's current joint state and ignores joint limits
 unless ``lowerLimits``/``upperLimits``/``jointRanges``/``restPoses`` are given with one entry per movable joint
-(arm and hand: 15 here). The solver runs before the physics steps (base placement sets the robot kinematically); the
-arm is reset to the seed first, so the solution is seeded from the last one.
+(arm and hand: 15 here). The solver runs in its own planning client, where the arm is reset to the seed first,
+so the solution is seeded from the last one and the physics client is never disturbed.
 """
 
 from __future__ import annotations
@@ -58,7 +58,7 @@ def solve_ik(
     rounds: int = 4,
     iterations: int = 100,
 ) -> IkSolution:
-    """Palm pose -> arm angles, starting from ``seed`` (7,) radians; ``robot`` is not being stepped.
+    """Palm pose -> arm angles, starting from ``seed`` (7,) radians; ``robot`` lives in a planning client.
 
     Runs pybullet's null-space IK (rest pose = seed, so the arm stays near it; at most ``iterations`` per call) up
     to ``rounds`` times, each from the previous answer, and keeps the best; the arm is left at the returned angles.

@@ -243,7 +243,7 @@ def _sweep(
 
 
 def place_base(robot: Robot, scene_body: int, keys: Sequence[KeyPose], floor_z: float = 0.0) -> Placement:
-    """Sweep ``candidate_bases`` (the robot set kinematically): the first candidate whose path is comfortable (see
+    """Sweep ``candidate_bases`` in the planning client: the first candidate whose path is comfortable (see
     ``reach_keys``) wins; failing that within ``FALLBACK_WINDOW`` candidates of the first one that merely reaches
     every key, that one. The first sweep skips candidates from which IK does not reach the farthest key at once;
     if it finds nothing, a second sweep tries them all.

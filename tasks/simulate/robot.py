@@ -143,7 +143,7 @@ def load_robot(client: int, base_position: npt.ArrayLike, base_quat_xyzw: npt.Ar
         )
     )
     # loadURDF places the URDF base frame, resetBasePositionAndOrientation the base's inertial frame: use the
-    # latter everywhere (base placement moves the robot with it).
+    # latter everywhere (the planning client moves its robot with it), so both clients agree.
     pb.resetBasePositionAndOrientation(body, pos.tolist(), quat.tolist(), physicsClientId=client)
     robot = Robot(client, body, pos, quat)
     set_arm(robot, ARM_REST)

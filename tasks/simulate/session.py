@@ -1,5 +1,5 @@
-"""One simulated execution's pybullet world: the physics client (scene + robot; the base placement's IK runs in it
-kinematically before anything steps), clocks, contact bookkeeping and one-tick palm motions.
+"""One simulated execution's pybullet world: the physics client (scene + robot) and a planning client (scene +
+a kinematic copy of the robot for IK), clocks, contact bookkeeping and one-tick palm motions.
 
 ``SceneSetup`` says how to build a scene; ``scene_joints`` lists its articulated joints with their world axes.
 """
@@ -89,7 +89,7 @@ def scene_joints(client: int, body: int, names: Sequence[str] | None, scene_name
 
 
 class Session:
-    """The mutable state of one execution (physics client, clocks, contact counts)."""
+    """The mutable state of one execution (physics and planning clients, clocks, contact counts)."""
 
     def __init__(self, setup: SceneSetup, frames_dir: Path | None) -> None:
         import pybullet as pb  # noqa: PLC0415
@@ -99,15 +99,19 @@ class Session:
         self.frames_dir = frames_dir
         self.frames: list[str] = []
         self.sim = int(pb.connect(pb.DIRECT))
-        pb.setGravity(0.0, 0.0, -9.81, physicsClientId=self.sim)
-        pb.setTimeStep(TIME_STEP_S, physicsClientId=self.sim)
+        self.plan = int(pb.connect(pb.DIRECT))
+        for c in (self.sim, self.plan):
+            pb.setGravity(0.0, 0.0, -9.81, physicsClientId=c)
+            pb.setTimeStep(TIME_STEP_S, physicsClientId=c)
         pb.setPhysicsEngineParameter(numSolverIterations=SOLVER_ITERATIONS, physicsClientId=self.sim)
         self.scene = setup.load(self.sim)
+        self.plan_scene = setup.load(self.plan)
         self.steps = 0
         self.contact_checks = 0
         self.contact_hits = 0
         self.q = rb.ARM_REST.copy()
         self.robot: rb.Robot | None = None
+        self.planner: rb.Robot | None = None
         self.camera_target = np.zeros(3)
         self.camera_eye = np.ones(3)
         self.part_links: set[int] = set()
@@ -116,7 +120,8 @@ class Session:
         self.trace_q: list[tuple[float, ...]] = []
 
     def close(self) -> None:
-        self.pb.disconnect(physicsClientId=self.sim)
+        for c in (self.sim, self.plan):
+            self.pb.disconnect(physicsClientId=c)
 
     # --- physics ---------------------------------------------------------------------------------------
     def step(self, n: int) -> None:
