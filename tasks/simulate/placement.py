@@ -20,7 +20,7 @@ from tasks.arrays import FloatArray
 from tasks.errors import SimulationError
 from tasks.simulate.ik import solve_ik
 from tasks.simulate.robot import ARM_JOINTS, ARM_LOWER, ARM_REST, ARM_UPPER, FLANGE_TO_PALM_M, Robot
-from tasks.simulate.waypoints import angle_between_quats, approach_axis
+from tasks.simulate.waypoints import angle_between_quats, approach_axis, matrix_from_axis_angle, quat_from_matrix
 
 RADII_M: tuple[float, ...] = (0.60, 0.50, 0.72, 0.40, 0.85)
 """Horizontal distances of the base from the palm path's centre, metres (the iiwa reaches 0.82 m)."""
@@ -100,13 +100,13 @@ def candidate_bases(keys: Sequence[KeyPose], floor_z: float = 0.0) -> list[tuple
     coarse = [(h, y) for h in HEIGHTS_M for y in YAWS_DEG]
     grid = [(r, h, y) for r in RADII_M for h, y in coarse]
     grid += [(r, h, y) for r in RADII_M for h, y in finer if (h, y) not in coarse]
+    z = [0.0, 0.0, 1.0]
+    bearings = {y: matrix_from_axis_angle(z, math.radians(y)) @ behind for y in (*YAWS_DEG, *FINER_YAWS_DEG)}
+    facings = {y: quat_from_matrix(matrix_from_axis_angle(z, math.atan2(-b[1], -b[0]))) for y, b in bearings.items()}
     for radius, height, yaw in grid:
-        c, s = math.cos(math.radians(yaw)), math.sin(math.radians(yaw))
-        bearing = np.array([c * behind[0] - s * behind[1], s * behind[0] + c * behind[1], 0.0])
-        base = centre + radius * bearing
+        base = centre + radius * bearings[yaw]
         base[2] = max(floor_z, centre[2] - height)
-        facing = math.atan2(-bearing[1], -bearing[0])
-        out.append((base, np.array([0.0, 0.0, math.sin(facing / 2.0), math.cos(facing / 2.0)])))
+        out.append((base, facings[yaw].copy()))
     return out
 
 
