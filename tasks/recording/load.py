@@ -81,13 +81,12 @@ def _split(names: Any, *columns: Any) -> dict[str, tuple[Any, ...]]:
     return out
 
 
-def load_recording_folder(folder: Path) -> RecordingData:
-    """Load a recording folder written by ingest; raise ``RecordingError`` naming the file on bad content."""
-    import pyarrow.parquet as pq  # noqa: PLC0415
-
+def read_recording_info(folder: Path) -> dict[str, Any]:
+    """The ``recording.json`` of a recording folder written by ingest; ``RecordingError`` naming the file when it
+    cannot be read or was written for another schema version."""
     info_path = folder / RECORDING_FILE
     try:
-        info = json.loads(info_path.read_text())
+        info: dict[str, Any] = json.loads(info_path.read_text())
     except (OSError, json.JSONDecodeError) as err:
         msg = f"cannot read ingested recording ({err})"
         raise RecordingError(info_path, msg) from err
@@ -95,6 +94,14 @@ def load_recording_folder(folder: Path) -> RecordingData:
     if version != SCHEMA_VERSION:
         msg = f"schema_version {version}, this pbd reads {SCHEMA_VERSION}: ingest it again"
         raise RecordingError(info_path, msg)
+    return info
+
+
+def load_recording_folder(folder: Path) -> RecordingData:
+    """Load a recording folder written by ingest; raise ``RecordingError`` naming the file on bad content."""
+    import pyarrow.parquet as pq  # noqa: PLC0415
+
+    info = read_recording_info(folder)
 
     markers: dict[str, MarkerTrack] = {}
     if (folder / MARKERS_FILE).is_file():

@@ -3,12 +3,11 @@ meta (``/demo/meta``: ``{"scene": ..., "seed": ...}``, as ``pbd synth`` writes i
 
 from __future__ import annotations
 
-import json
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from tasks.errors import StoreError
+from tasks.recording.load import read_recording_info
 
 
 def instance_from_meta(meta: Mapping[str, Any]) -> tuple[str | None, int | None]:
@@ -23,11 +22,7 @@ def instance_from_meta(meta: Mapping[str, Any]) -> tuple[str | None, int | None]
 
 
 def recording_meta(recording_dir: Path) -> dict[str, Any]:
-    """The meta of an ingested recording (``recording.json``'s ``meta``; empty when it has none)."""
-    path = recording_dir / "recording.json"
-    try:
-        data = json.loads(path.read_text())
-    except (OSError, json.JSONDecodeError) as err:
-        raise StoreError(path, f"cannot read the ingested recording's metadata: {err}") from err
-    meta = data.get("meta") if isinstance(data, dict) else None
+    """The meta of an ingested recording (``recording.json``'s ``meta``; empty when it has none);
+    ``RecordingError`` when ``recording.json`` cannot be read."""
+    meta = read_recording_info(recording_dir).get("meta")
     return dict(meta) if isinstance(meta, dict) else {}

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from tasks.errors import StoreError
+from tasks.errors import RecordingError
 from tasks.simulate.instance import instance_from_meta, recording_meta
 
 
@@ -34,7 +34,10 @@ def test_recording_meta_reads_recording_json(tmp_path: Path) -> None:
 
 def test_recording_meta_names_an_unreadable_file(tmp_path: Path) -> None:
     (tmp_path / "recording.json").write_text("{not json")
-    with pytest.raises(StoreError, match=r"recording\.json: cannot read the ingested recording's metadata"):
+    with pytest.raises(RecordingError, match=r"recording\.json: cannot read ingested recording"):
         recording_meta(tmp_path)
-    with pytest.raises(StoreError, match="cannot read"):
+    with pytest.raises(RecordingError, match=r"missing/recording\.json: cannot read ingested recording"):
         recording_meta(tmp_path / "missing")
+    (tmp_path / "recording.json").write_text(json.dumps({"schema_version": 99, "meta": {"scene": "door"}}))
+    with pytest.raises(RecordingError, match="schema_version 99, this pbd reads"):
+        recording_meta(tmp_path)
