@@ -22,7 +22,7 @@ import pybullet as pb
 from schemas.descriptor import Descriptor, Grasp, ObjectRef, Primitive
 from tasks.arrays import FloatArray
 from tasks.errors import SceneError
-from tasks.scenes.scene import HAND_LINK, Marker, Quat, Scene, Vec3
+from tasks.scenes.scene import HAND_LINK, Quat, Scene, Vec3
 
 TRUTH_SAMPLES = 101
 """Samples per motion for the marker centroid of a rotation's ``pos``."""
@@ -176,26 +176,22 @@ def truth_chain(scene: Scene) -> tuple[Primitive, ...]:
             axis /= np.linalg.norm(axis)
             delta = motion.end - motion.start
             direction = axis if delta >= 0 else -axis
-            names = [f"/mocap/{m.name}" for m in _markers_moved(scene, client, body, motion.joint)]
+            moved = moving_links(client, body, motion.joint)
+            hand_moves = scene.grasp_link in moved
+            names = tuple(
+                f"/mocap/{m.name}" for m in scene.markers if m.link in moved or (m.link == HAND_LINK and hand_moves)
+            )
             if kind_code == pb.JOINT_PRISMATIC:
-                chain.append(Primitive("translation", None, _vec(direction), abs(delta), markers=tuple(names)))
+                chain.append(Primitive("translation", None, _vec(direction), abs(delta), markers=names))
                 continue
-            centroid = _moving_marker_centroid(scene, client, body, k)
+            centroid = _moving_marker_centroid(scene, client, body, k, moved)
             foot = pos + axis * float(np.dot(centroid - pos, axis))
-            chain.append(Primitive("rotation", _vec(foot), _vec(direction), abs(delta), markers=tuple(names)))
+            chain.append(Primitive("rotation", _vec(foot), _vec(direction), abs(delta), markers=names))
     return tuple(chain)
 
 
-def _markers_moved(scene: Scene, client: int, body: int, joint: str) -> list[Marker]:
-    moved = moving_links(client, body, joint)
-    hand_moves = scene.grasp_link in moved
-    return [m for m in scene.markers if m.link in moved or (m.link == HAND_LINK and hand_moves)]
-
-
-def _moving_marker_centroid(scene: Scene, client: int, body: int, k: int) -> FloatArray:
-    """Mean world position of the object markers that motion ``k`` moves, over the motion (uniform in time)."""
-    motion = scene.motions[k]
-    moved = moving_links(client, body, motion.joint)
+def _moving_marker_centroid(scene: Scene, client: int, body: int, k: int, moved: set[str]) -> FloatArray:
+    """Mean world position of the object markers on the ``moved`` links over motion ``k`` (uniform in time)."""
     markers = [m for m in scene.markers if m.link in moved]
     if not markers:  # no marker on the part: the grasp site stands for it
         markers_links = [scene.grasp_link]
