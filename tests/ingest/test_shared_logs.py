@@ -70,6 +70,9 @@ DERIVED = {
 
 
 def _lines() -> list[tuple[str, dict[str, Any]]]:
+    if not LOGS.is_dir():
+        msg = f"{LOGS}: the shared real logs are needed here (clone pbd beside ../shared, as CI does)"
+        raise FileNotFoundError(msg)
     out = []
     for name in ("EXPECTED-realworld.jsonl", "EXPECTED-rosbag2-conformance.jsonl"):
         for line in (LOGS / name).read_text().splitlines():
