@@ -271,12 +271,12 @@ def _execute(run: Session, desc: Descriptor, grasp_mode: GraspMode, wall0: float
     keys = key_poses(desc, matches, by_name, q0)
 
     # Base placement in the planning client (scene + robot, kinematic only).
-    run.planner = rb.load_robot(run.plan, [0.0, 0.0, -5.0], [0.0, 0.0, 0.0, 1.0])
+    run.planner = rb.load_robot(run.plan, [0.0, 0.0, -5.0], [0.0, 0.0, 0.0, 1.0], visuals=False)
     placement = place_base(run.planner, run.plan_scene, keys, run.setup.floor_z)
     pb.resetBasePositionAndOrientation(
         run.planner.body, placement.base_position.tolist(), placement.base_quat.tolist(), physicsClientId=run.plan
     )
-    run.robot = rb.load_robot(run.sim, placement.base_position, placement.base_quat)
+    run.robot = rb.load_robot(run.sim, placement.base_position, placement.base_quat, visuals=run.frames_dir is not None)
     centre = np.mean([k.position for k in keys], axis=0)
     run.camera_target = 0.6 * centre + 0.4 * placement.base_position
     to_base = placement.base_position - centre

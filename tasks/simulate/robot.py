@@ -92,16 +92,20 @@ def robot_urdf_text() -> str:
     return text.replace("</robot>", f"{mount}\n{body.group(1)}\n</robot>")
 
 
-def robot_urdf(cache_dir: Path | None = None) -> Path:
+def robot_urdf(cache_dir: Path | None = None, *, visuals: bool = True) -> Path:
     """Write the combined URDF once to a content-addressed cache path (``$PBD_CACHE`` or tmp) and return it; its
-    arm collides as the hulls of its meshes (``hulls.py``: the same geometry, loaded twice as fast)."""
+    arm collides as the hulls of its meshes (``hulls.py``: the same geometry, loaded twice as fast).
+    ``visuals=False``: the same robot without ``<visual>`` elements, for clients that never render (it loads in
+    about 60 % of the time; pybullet's DIRECT mode loads visual meshes for its software renderer)."""
     from tasks.simulate.hulls import with_hull_collisions  # noqa: PLC0415 - scipy only when the robot is built
 
     root = cache_dir or Path(os.environ.get("PBD_CACHE", Path(tempfile.gettempdir()) / "pbd-cache"))
-    known = _URDF_PATHS.get(root)
+    known = _URDF_PATHS.get((root, visuals))
     if known is not None and known.exists():
         return known
     text = with_hull_collisions(robot_urdf_text(), root / "simulate" / "hulls")
+    if not visuals:
+        text = re.sub(r"<visual\b.*?</visual>", "", text, flags=re.DOTALL)
     digest = hashlib.sha256(text.encode()).hexdigest()[:12]
     path = root / "simulate" / f"iiwa_barrett-{digest}.urdf"
     if not path.exists():
@@ -109,12 +113,12 @@ def robot_urdf(cache_dir: Path | None = None) -> Path:
         with tempfile.NamedTemporaryFile("w", dir=path.parent, delete=False, suffix=".tmp") as tmp:
             tmp.write(text)
         Path(tmp.name).replace(path)
-    _URDF_PATHS[root] = path
+    _URDF_PATHS[(root, visuals)] = path
     return path
 
 
-_URDF_PATHS: dict[Path, Path] = {}
-"""Cache root -> the combined URDF written there (this process)."""
+_URDF_PATHS: dict[tuple[Path, bool], Path] = {}
+"""(cache root, with visuals) -> the combined URDF written there (this process)."""
 
 
 @dataclass(frozen=True)
@@ -127,15 +131,18 @@ class Robot:
     base_quat: FloatArray
 
 
-def load_robot(client: int, base_position: npt.ArrayLike, base_quat_xyzw: npt.ArrayLike) -> Robot:
-    """Load the iiwa + hand with a fixed base at the given world pose; arm at ``ARM_REST``, hand open."""
+def load_robot(
+    client: int, base_position: npt.ArrayLike, base_quat_xyzw: npt.ArrayLike, *, visuals: bool = True
+) -> Robot:
+    """Load the iiwa + hand with a fixed base at the given world pose; arm at ``ARM_REST``, hand open;
+    ``visuals=False`` for a client that never renders."""
     import pybullet as pb  # noqa: PLC0415 - pybullet stays out of CLI start-up
 
     pos = np.asarray(base_position, dtype=np.float64)
     quat = np.asarray(base_quat_xyzw, dtype=np.float64)
     body = int(
         pb.loadURDF(
-            str(robot_urdf()),
+            str(robot_urdf(visuals=visuals)),
             pos.tolist(),
             quat.tolist(),
             useFixedBase=True,

@@ -15,6 +15,7 @@ import numpy as np
 
 from tasks.arrays import FloatArray
 from tasks.errors import SimulationError
+from tasks.simulate import clients
 from tasks.simulate import robot as rb
 from tasks.simulate.control import command_for_twist, pose_error
 from tasks.simulate.matching import JointAxis
@@ -98,8 +99,8 @@ class Session:
         self.setup = setup
         self.frames_dir = frames_dir
         self.frames: list[str] = []
-        self.sim = int(pb.connect(pb.DIRECT))
-        self.plan = int(pb.connect(pb.DIRECT))
+        self.sim = clients.acquire()
+        self.plan = clients.acquire()
         for c in (self.sim, self.plan):
             pb.setGravity(0.0, 0.0, -9.81, physicsClientId=c)
             pb.setTimeStep(TIME_STEP_S, physicsClientId=c)
@@ -121,7 +122,7 @@ class Session:
 
     def close(self) -> None:
         for c in (self.sim, self.plan):
-            self.pb.disconnect(physicsClientId=c)
+            clients.release(c)
 
     # --- physics ---------------------------------------------------------------------------------------
     def step(self, n: int) -> None:
