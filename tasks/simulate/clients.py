@@ -1,5 +1,5 @@
 """Reusable pybullet DIRECT clients: a per-process pool, each client emptied by ``resetSimulation`` when it is
-handed out again.
+given back.
 
 Connecting and disconnecting a DIRECT client costs about 12 ms of CPU (pybullet starts its plugins each time),
 resetting one 0.2 ms; an execution needs two clients, so a process that runs many executions (a flow, the
@@ -19,23 +19,21 @@ _LOCK = threading.Lock()
 
 
 def acquire() -> int:
-    """An empty pybullet DIRECT client id: a pooled one reset, or a new connection."""
+    """An empty pybullet DIRECT client id: a pooled one (emptied on release), or a new connection."""
     import pybullet as pb  # noqa: PLC0415 - pybullet stays out of CLI start-up
 
     with _LOCK:
         client = _FREE.pop() if _FREE else None
-    if client is None:
-        return int(pb.connect(pb.DIRECT))
-    pb.resetSimulation(physicsClientId=client)
-    return client
+    return int(pb.connect(pb.DIRECT)) if client is None else client
 
 
 def release(client: int) -> None:
-    """Give ``client`` back to the pool (its bodies stay until the next ``acquire`` resets it)."""
+    """Empty ``client`` (``resetSimulation``: its bodies' memory is freed now) and give it back to the pool."""
     import pybullet as pb  # noqa: PLC0415
 
     if not pb.isConnected(physicsClientId=client):
         return
+    pb.resetSimulation(physicsClientId=client)
     with _LOCK:
         if client not in _FREE:
             _FREE.append(client)
