@@ -44,8 +44,8 @@ COLUMNS: tuple[tuple[str, str, str, str], ...] = (
 
 @dataclass(frozen=True)
 class Run:
-    """One execution: its column, outcome, reason when failed, simulated / wall / CPU seconds end to end, and
-    wall / CPU seconds of the physics and control loop."""
+    """One execution: its column, outcome, reason when failed, simulated / wall / CPU seconds end to end, wall /
+    CPU seconds of the physics and control loop, and CPU seconds inside pybullet's physics steps."""
 
     column: str
     success: bool
@@ -55,6 +55,7 @@ class Run:
     cpu_s: float = 0.0
     loop_s: float = 0.0
     loop_cpu_s: float = 0.0
+    physics_cpu_s: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -134,7 +135,14 @@ def run_instance(index: int, name: str, seed: int, folder: str, bench_seed: int)
             runs.append(Run(label, False, str(err)))
             continue
         reason = "" if res.success else failure_reason(res)
-        times = (res.sim_time_s, res.wall_time_s, res.cpu_time_s, res.loop_wall_time_s, res.loop_cpu_time_s)
+        times = (
+            res.sim_time_s,
+            res.wall_time_s,
+            res.cpu_time_s,
+            res.loop_wall_time_s,
+            res.loop_cpu_time_s,
+            res.physics_cpu_time_s,
+        )
         runs.append(Run(label, res.success, reason, *times))
     chain = "+".join(p.kind[:3] for p in learned.chain) if learned is not None else "-"
     return InstanceResult(index, name, seed, chain, tuple(runs), learn_s, note)
@@ -169,6 +177,7 @@ def report(results: list[InstanceResult], elapsed_s: float, args: argparse.Names
     cpu = sum(r.cpu_s for r in executed)
     loop = sum(r.loop_s for r in executed)
     loop_cpu = sum(r.loop_cpu_s for r in executed)
+    physics_cpu = sum(r.physics_cpu_s for r in executed)
     learn = sum(res.learn_s for res in results)
     procs = f"{args.workers} processes"
     print(f"\nsimulate benchmark: {len(results)} instances (seed {args.seed}), {procs}, {elapsed_s:.0f} s")
@@ -195,6 +204,11 @@ def report(results: list[InstanceResult], elapsed_s: float, args: argparse.Names
     print(f"  sim time / CPU time, end to end:                                  {sim / cpu:5.1f}x")
     print(f"  sim time / wall time, physics and control loop only:              {sim / loop:5.1f}x")
     print(f"  sim time / CPU time, physics and control loop only:               {sim / loop_cpu:5.1f}x")
+    print(f"  sim time / CPU time, pybullet's physics steps alone (the ceiling): {sim / physics_cpu:5.1f}x")
+    n_exec = len(executed)
+    load_ms, control_ms = (cpu - loop_cpu) / n_exec * 1e3, (loop_cpu - physics_cpu) / n_exec * 1e3
+    print(f"  per execution, CPU: loading and base placement {load_ms:.0f} ms, control {control_ms:.0f} ms, "
+          f"physics {physics_cpu / n_exec * 1e3:.0f} ms")  # fmt: skip
     print(f"  whole benchmark: {sim / elapsed_s:.1f} simulated s per wall s on {args.workers} processes "
           f"(learning {learn:.0f} s of it, {learn / len(results):.1f} s per instance)")  # fmt: skip
     print("\nper scene (success: learned | learned disturbed | truth | truth disturbed | learned friction only):")

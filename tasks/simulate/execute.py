@@ -396,6 +396,7 @@ def _execute(run: Session, desc: Descriptor, grasp_mode: GraspMode, wall0: float
         grasp_mode=grasp_mode,
         loop_wall_time_s=time.perf_counter() - loop0,
         loop_cpu_time_s=time.process_time() - loop_cpu0,
+        physics_cpu_time_s=run.physics_cpu_s,
         trace=JointTrace(tuple(driven), tuple(run.trace_t), tuple(run.trace_q)),
         frames=tuple(run.frames),
         notes=tuple(notes),

@@ -74,8 +74,8 @@ class SimulationResult:
     kept, overall ``success``, simulated and wall-clock seconds, base placement (world, metres, [x,y,z,w]),
     ``grasp_mode`` ("constraint" or "friction"), the wall and CPU time of the physics and control loop alone
     (pre-grasp to the end, without loading and base placement), the process CPU time of the whole execution (a
-    shared machine's load inflates wall time, not CPU time), the driven joints' trace (not in ``to_dict``),
-    key-frame PNG paths and notes."""
+    shared machine's load inflates wall time, not CPU time) and of pybullet's physics steps alone, the driven
+    joints' trace (not in ``to_dict``), key-frame PNG paths and notes."""
 
     descriptor_id: str
     scene: str
@@ -92,6 +92,7 @@ class SimulationResult:
     loop_wall_time_s: float = 0.0
     loop_cpu_time_s: float = 0.0
     cpu_time_s: float = 0.0
+    physics_cpu_time_s: float = 0.0
     trace: JointTrace = field(default_factory=JointTrace)
     frames: tuple[str, ...] = ()
     notes: tuple[str, ...] = field(default_factory=tuple)
@@ -116,6 +117,7 @@ class SimulationResult:
             "loop_wall_time_s": self.loop_wall_time_s,
             "loop_cpu_time_s": self.loop_cpu_time_s,
             "cpu_time_s": self.cpu_time_s,
+            "physics_cpu_time_s": self.physics_cpu_time_s,
             "real_time_factor": self.real_time_factor,
             "base": {"position": list(self.base_position), "orientation": list(self.base_quat)},
             "primitives": [p.to_dict() for p in self.primitives],

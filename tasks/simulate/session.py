@@ -6,6 +6,7 @@ a kinematic copy of the robot for IK), clocks, contact bookkeeping and one-tick 
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -108,6 +109,8 @@ class Session:
         self.scene = setup.load(self.sim)
         self.plan_scene = setup.load(self.plan)
         self.steps = 0
+        self.physics_cpu_s = 0.0
+        """CPU seconds spent in pybullet's physics steps."""
         self.contact_checks = 0
         self.contact_hits = 0
         self.q = rb.ARM_REST.copy()
@@ -126,8 +129,10 @@ class Session:
 
     # --- physics ---------------------------------------------------------------------------------------
     def step(self, n: int) -> None:
+        cpu0 = time.process_time()
         for _ in range(n):
             self.pb.stepSimulation(physicsClientId=self.sim)
+        self.physics_cpu_s += time.process_time() - cpu0
         self.steps += n
 
     @property

@@ -44,6 +44,7 @@ def test_json_output_shape(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
         "wall_time_s",
         "loop_wall_time_s",
         "loop_cpu_time_s",
+        "physics_cpu_time_s",
         "cpu_time_s",
         "real_time_factor",
         "base",
