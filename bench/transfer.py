@@ -51,14 +51,8 @@ from tasks.synth.record import synthesize
 from tasks.transfer import shapes
 from tasks.transfer.api import MAX_SPREAD_DEG, MAX_SPREAD_MM, SPREAD_COUNT, SPREAD_SCORE_GAP, transfer_descriptor
 from tasks.transfer.carry import axis_spread, carry_chain, carry_grasp, carry_primitive
-from tasks.transfer.registration import (
-    Registration,
-    RegistrationParams,
-    bbox_diagonal,
-    functional_mask,
-    plain_icp,
-    register_models,
-)
+from tasks.transfer.clouds import bbox_diagonal, functional_mask, plain_icp
+from tasks.transfer.registration import Registration, RegistrationParams, register_models
 from tasks.transfer.scene_models import scene_model
 from tasks.transfer.similarity import Similarity, angle_between_deg, point_line_distance
 

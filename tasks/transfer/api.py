@@ -18,7 +18,8 @@ from tasks.arrays import Points
 from tasks.code_version import code_version
 from tasks.errors import GraspError, TransferError
 from tasks.transfer.carry import axis_spread, carry_chain, carry_grasp, focus_points, grip_points, keep_standoff
-from tasks.transfer.registration import Registration, RegistrationParams, check_model, register_models
+from tasks.transfer.clouds import check_model
+from tasks.transfer.registration import Registration, RegistrationParams, register_models
 from tasks.transfer.similarity import Similarity
 
 __all__ = ["RegistrationParams", "TransferResult", "register_models", "transfer_descriptor"]

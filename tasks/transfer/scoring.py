@@ -1,0 +1,82 @@
+"""Scoring and ranking of refined alignments, and the judgement of a poor registration.
+
+An alignment's ranking score combines the whole models' two-way fit, the functional part's fit both ways and
+the two-way match of the small balls around the grasped part (which tells a box's handle side from its mirror
+image). Lengths in metres, target frame unless named otherwise.
+"""
+
+from __future__ import annotations
+
+import math
+
+from tasks.arrays import Points
+from tasks.transfer.clouds import O3dCloud, bbox_diagonal, fitness, functional_mask, to_cloud
+from tasks.transfer.registration_types import Alignment, RegistrationParams
+from tasks.transfer.similarity import Similarity
+
+
+def two_way_score(source: O3dCloud, target: O3dCloud, fitted: Similarity, threshold: float) -> float:
+    """Geometric mean of the source->target and target->source fitnesses within ``threshold`` (target units)."""
+    f_st, _ = fitness(source, target, fitted, threshold)
+    f_ts, _ = fitness(target, source, fitted.inverse(), threshold / fitted.scale)
+    return math.sqrt(f_st * f_ts)
+
+
+def functional_score(
+    model_score: float,
+    fitted: Similarity,
+    *,
+    used_fine: O3dCloud,
+    tgt_fine: O3dCloud,
+    tgt_fine_pts: Points,
+    focus: Points,
+    crop_radius: float,
+    threshold: float,
+) -> float:
+    """Ranking score led by the functional part: ``model_score`` ** 1/3 times (the part's fit onto the target,
+    ** 0.75, times the fit of the target's region around the carried focus points back onto it, ** 0.25) ** 2/3.
+    ``crop_radius`` is in source metres."""
+    centres = fitted.apply_points(focus)
+    local = tgt_fine_pts[functional_mask(tgt_fine_pts, centres, crop_radius * fitted.scale)]
+    c_st, _ = fitness(used_fine, tgt_fine, fitted, threshold)
+    c_ts = 0.0
+    if local.shape[0] > 0:
+        c_ts, _ = fitness(to_cloud(local), used_fine, fitted.inverse(), threshold / fitted.scale)
+    return float(model_score ** (1.0 / 3.0) * (c_st**0.75 * c_ts**0.25) ** (2.0 / 3.0))
+
+
+def grip_score(
+    src: Points, tgt: Points, grip: Points, fitted: Similarity, *, params: RegistrationParams, threshold: float
+) -> float:
+    """Two-way match of the balls around the grip points (source and carried into the target), in (0, 1]."""
+    radius = min(params.grip_frac * bbox_diagonal(src), params.grip_max_m)
+    ball_s = src[functional_mask(src, grip, radius)]
+    ball_t = tgt[functional_mask(tgt, fitted.apply_points(grip), radius * fitted.scale)]
+    g_st = fitness(to_cloud(ball_s), to_cloud(tgt), fitted, threshold)[0] if len(ball_s) else 0.0
+    g_ts = 0.0
+    if len(ball_t):
+        g_ts = fitness(to_cloud(ball_t), to_cloud(src), fitted.inverse(), threshold / fitted.scale)[0]
+    floor = params.grip_floor
+    return math.sqrt((g_st + floor) * (g_ts + floor)) / (1.0 + floor)
+
+
+def ranked(alignments: list[Alignment]) -> list[Alignment]:
+    """Best first: by score to two decimals, then by inlier RMSE."""
+    return sorted(alignments, key=lambda a: (-round(a.score, 2), a.inlier_rmse_m))
+
+
+def poor_fit_warning(best: Alignment, params: RegistrationParams, threshold: float) -> str | None:
+    """The warning when the best alignment fits poorly (fitness, surface RMSE against ``threshold`` or the
+    two-way score beyond the limits of ``params``), else None."""
+    poor = (
+        best.fitness < params.poor_fitness
+        or best.plane_rmse_m > params.poor_plane_frac * threshold
+        or best.model_score < params.poor_score
+    )
+    if not poor:
+        return None
+    return (
+        f"poor registration: fitness {best.fitness:.2f} (want >= {params.poor_fitness}), "
+        f"surface RMSE {best.plane_rmse_m * 1e3:.2f} mm (want <= {params.poor_plane_frac * threshold * 1e3:.2f}), "
+        f"two-way score {best.model_score:.2f} (want >= {params.poor_score})"
+    )
