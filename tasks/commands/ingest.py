@@ -16,7 +16,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("recordings", nargs="+", type=Path, metavar="RECORDING", help=".mcap, .bag or rosbag2 folder")
     parser.add_argument("--topics", type=Path, metavar="MAP", help="topic map YAML overriding role detection")
     parser.add_argument(
-        "--recover", action="store_true", help="keep the intact messages of a truncated MCAP (warns what was lost)"
+        "--recover",
+        action="store_true",
+        help="keep the intact messages of a truncated or damaged MCAP, bag or rosbag2 (warns what was lost)",
     )
     parser.add_argument(
         "--object-model", type=Path, metavar="FILE", help="object model .ply/.pcd/.obj/.stl (world frame)"

@@ -187,8 +187,9 @@ def ingest_recording(
     """Ingest the recording at ``source`` into ``store``; a no-op (``created=False``) if it is already there.
 
     Raises ``RecordingError`` (bad or unreadable recording, naming the file and topic), ``TopicMapError``
-    (bad ``topics`` map). With ``recover``, a truncated MCAP keeps its intact messages and the loss is
-    reported in ``lost_messages`` and ``warnings``.
+    (bad ``topics`` map). With ``recover``, a truncated or damaged MCAP, ROS 1 bag or rosbag2 keeps its intact
+    messages before the damage and the loss is reported in ``lost_messages`` (exact where rosbag2 metadata counts
+    the messages, an estimate otherwise) and ``warnings``.
     """
     import pyarrow.parquet as pq  # noqa: PLC0415
 

@@ -105,9 +105,9 @@ def read_recording(path: Path, *, recover: bool = False) -> RawRecording:
     if kind == "mcap":
         return _read_mcap_file(path, recover)
     if kind == "bag":
-        return _read_bag(path)
+        return _read_bag(path, recover)
     if kind == "db3":
-        return _read_rosbag2_files(path, [path])
+        return _read_rosbag2_files(path, [path], recover)
     return _read_rosbag2(path, recover)
 
 
@@ -158,8 +158,8 @@ def _read_mcap_file(path: Path, recover: bool) -> RawRecording:
 
 
 # -- ROS 1 bag --------------------------------------------------------------------------------------
-def _read_bag(path: Path) -> RawRecording:
-    content = read_bag(path.read_bytes(), str(path))
+def _read_bag(path: Path, recover: bool) -> RawRecording:
+    content = read_bag(path.read_bytes(), str(path), recover=recover)
     topics: dict[str, RawTopic] = {}
     for cid, conn in sorted(content.connections.items()):
         topic = topics.get(conn.topic)
@@ -172,7 +172,24 @@ def _read_bag(path: Path) -> RawRecording:
         batch = content.batch(cid)
         if batch is not None:
             topic.batches.append(batch)
-    return RawRecording(path, "bag", topics)
+    rec = RawRecording(path, "bag", topics)
+    if content.damage is not None:
+        kept = rec.message_count
+        rec.lost_messages = content.lost_messages
+        if content.past_data:
+            what = f"recovered all {kept} messages (the damage is past the last chunk, in the index)"
+        else:
+            announced = (
+                f"; the bag header announces {content.chunk_count} chunks, {content.chunks_read} were read whole"
+                if content.chunk_count
+                else ""
+            )
+            what = (
+                f"recovered {kept} messages before byte {content.damage_offset}, lost at least "
+                f"{rec.lost_messages} (estimated; whatever was recorded after the damage cannot be counted{announced})"
+            )
+        rec.warnings.append(f"{path}: {content.damage}; {what}")
+    return rec
 
 
 # -- rosbag2 ----------------------------------------------------------------------------------------
@@ -236,11 +253,13 @@ def _read_rosbag2(path: Path, recover: bool) -> RawRecording:
         if storage == "mcap" or all(p.suffix == ".mcap" for p in plain):
             rec = _read_rosbag2_mcap(path, plain, recover)
         elif storage in ("sqlite3", "") or all(p.suffix == ".db3" for p in plain):
-            rec = _read_rosbag2_files(path, plain)
+            rec = _read_rosbag2_files(path, plain, recover)
         else:
             msg = f"unknown rosbag2 storage {storage!r}"
             raise RecordingError(path, msg)
     rec.container = "rosbag2"
+    if expected:  # metadata.yaml counts every topic: the loss is exact, not the storage reader's estimate
+        rec.lost_messages = 0
     for name, (msgtype, fmt_, count) in expected.items():
         topic = rec.topics.get(name)
         if topic is None:
@@ -251,7 +270,10 @@ def _read_rosbag2(path: Path, recover: bool) -> RawRecording:
             topic.batches = [_unzstd_batch(b, path) for b in topic.batches]
         if topic.count < count:
             msg = f"metadata.yaml promises {count} messages, the storage holds {topic.count}"
-            raise RecordingError(path, msg, name)
+            if not recover:
+                raise RecordingError(path, msg, name)
+            rec.lost_messages += count - topic.count
+            rec.warnings.append(f"{path}: topic {name}: {msg}; recovered those, lost {count - topic.count}")
     return rec
 
 
@@ -279,6 +301,7 @@ def _read_rosbag2_mcap(path: Path, files: list[Path], recover: bool) -> RawRecor
         _topics_from_mcap(content, f, topics, "cdr")
         if content.damage is not None:
             rec.warnings.append(f"{f}: {content.damage}")
+            rec.lost_messages += content.lost_messages  # replaced by the exact loss where metadata.yaml counts
     return rec
 
 
@@ -296,10 +319,13 @@ def _sqlite_open(db: Path) -> Iterator[sqlite3.Connection]:
         con.close()
 
 
-def _read_rosbag2_files(path: Path, files: list[Path]) -> RawRecording:
+def _read_rosbag2_files(path: Path, files: list[Path], recover: bool) -> RawRecording:
+    """The topics and messages of sqlite3 storage files; with ``recover``, the messages a damaged file yields
+    before the damage are kept (with a warning) instead of an error."""
     topics: dict[str, RawTopic] = {}
     payloads: dict[str, list[bytes]] = {}
     stamps: dict[str, list[int]] = {}
+    warnings: list[str] = []
     for db in files:
         if db.suffix != ".db3":
             msg = f"unexpected storage file {db.name} for sqlite3 storage"
@@ -326,6 +352,11 @@ def _read_rosbag2_files(path: Path, files: list[Path]) -> RawRecording:
                         topics[name] = RawTopic(str(name), msgtype, str(fmt), enc, text)
                         payloads[name] = []
                         stamps[name] = []
+            except sqlite3.Error as err:
+                msg = f"corrupt sqlite3 storage ({err})"
+                raise RecordingError(db, msg) from err
+            kept = 0
+            try:
                 for tid, ts, data in con.execute("SELECT topic_id, timestamp, data FROM messages ORDER BY id"):
                     name = ids.get(int(tid))
                     if name is None:
@@ -333,10 +364,13 @@ def _read_rosbag2_files(path: Path, files: list[Path]) -> RawRecording:
                         raise RecordingError(db, msg)
                     payloads[name].append(bytes(data))
                     stamps[name].append(int(ts))
+                    kept += 1
             except sqlite3.Error as err:
                 msg = f"corrupt sqlite3 storage ({err})"
-                raise RecordingError(db, msg) from err
+                if not recover:
+                    raise RecordingError(db, msg) from err
+                warnings.append(f"{db}: {msg}; recovered the {kept} messages before the damage")
     for name, topic in topics.items():
         if payloads[name]:
             topic.batches.append(Batch.from_payloads(payloads[name], stamps[name]))
-    return RawRecording(path, "rosbag2", topics)
+    return RawRecording(path, "rosbag2", topics, warnings=warnings)
