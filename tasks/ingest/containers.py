@@ -144,17 +144,26 @@ def _read_mcap_file(path: Path, recover: bool) -> RawRecording:
     _topics_from_mcap(content, path, topics, "")
     rec = RawRecording(path, "mcap", topics)
     if content.damage is not None:
-        kept = rec.message_count
         rec.lost_messages = content.lost_messages
-        if content.past_data:
-            what = f"recovered all {kept} messages (the damage is past the data section)"
-        else:
-            what = (
-                f"recovered {kept} messages before byte {content.damage_offset}, lost at least "
-                f"{rec.lost_messages} (the file ends there: whatever was recorded after it cannot be counted)"
-            )
-        rec.warnings.append(f"{path}: {content.damage}; {what}")
+        past = "the damage is past the data section"
+        rec.warnings.append(
+            _recovery_warning(rec, content.damage, content.damage_offset, past_data=content.past_data, past=past)
+        )
     return rec
+
+
+def _recovery_warning(
+    rec: RawRecording, damage: str, offset: int | None, *, past_data: bool, past: str, detail: str = ""
+) -> str:
+    """The ``--recover`` warning: what was wrong, what was kept and (a lower bound of) what was lost; ``past``
+    says where damage that cost nothing lies, ``detail`` adds to the loss."""
+    kept = rec.message_count
+    if past_data:
+        return f"{rec.path}: {damage}; recovered all {kept} messages ({past})"
+    return (
+        f"{rec.path}: {damage}; recovered {kept} messages before byte {offset}, lost at least {rec.lost_messages} "
+        f"(estimated; whatever was recorded after the damage cannot be counted{detail})"
+    )
 
 
 # -- ROS 1 bag --------------------------------------------------------------------------------------
@@ -174,21 +183,18 @@ def _read_bag(path: Path, recover: bool) -> RawRecording:
             topic.batches.append(batch)
     rec = RawRecording(path, "bag", topics)
     if content.damage is not None:
-        kept = rec.message_count
         rec.lost_messages = content.lost_messages
-        if content.past_data:
-            what = f"recovered all {kept} messages (the damage is past the last chunk, in the index)"
-        else:
-            announced = (
-                f"; the bag header announces {content.chunk_count} chunks, {content.chunks_read} were read whole"
-                if content.chunk_count
-                else ""
+        past = "the damage is past the last chunk, in the index"
+        announced = (
+            f"; the bag header announces {content.chunk_count} chunks, {content.chunks_read} were read whole"
+            if content.chunk_count
+            else ""
+        )
+        rec.warnings.append(
+            _recovery_warning(
+                rec, content.damage, content.damage_offset, past_data=content.past_data, past=past, detail=announced
             )
-            what = (
-                f"recovered {kept} messages before byte {content.damage_offset}, lost at least "
-                f"{rec.lost_messages} (estimated; whatever was recorded after the damage cannot be counted{announced})"
-            )
-        rec.warnings.append(f"{path}: {content.damage}; {what}")
+        )
     return rec
 
 
