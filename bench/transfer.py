@@ -49,9 +49,10 @@ from tasks.simulate.api import simulate_descriptor
 from tasks.store import Store
 from tasks.synth.record import synthesize
 from tasks.transfer import shapes
-from tasks.transfer.api import MAX_SPREAD_DEG, MAX_SPREAD_MM, SPREAD_COUNT, SPREAD_SCORE_GAP, transfer_descriptor
-from tasks.transfer.carry import axis_spread, carry_chain, carry_grasp, carry_primitive
-from tasks.transfer.clouds import bbox_diagonal, functional_mask, plain_icp
+from tasks.transfer.api import MAX_SPREAD_DEG, MAX_SPREAD_MM, plausible_alternatives, transfer_descriptor
+from tasks.transfer.axes import PlacedAxes, place_axes, placed_spread
+from tasks.transfer.carry import carry_chain, carry_grasp, carry_primitive, grip_points
+from tasks.transfer.clouds import bbox_diagonal, check_model, functional_mask, plain_icp
 from tasks.transfer.registration import Registration, RegistrationParams, register_models
 from tasks.transfer.scene_models import scene_model
 from tasks.transfer.similarity import Similarity, angle_between_deg, point_line_distance
@@ -80,12 +81,16 @@ def axis_error(est: Similarity, truth_pos: np.ndarray, truth_dir: np.ndarray, mo
     return Outcome(angle_between_deg(d, truth_dir), point_line_distance(truth_pos, p, d) * 1e3)
 
 
-def chain_error(est: Similarity, chain: tuple[Primitive, ...], truth: tuple[Primitive, ...]) -> Outcome:
+def chain_error(
+    est: Similarity | tuple[Similarity, ...], chain: tuple[Primitive, ...], truth: tuple[Primitive, ...]
+) -> Outcome:
     """Worst direction error (deg) and worst axis position error (mm, true axis point to the carried line; NaN
-    when no primitive has an axis point) over ``chain`` carried by ``est``, against ``truth`` (target frame)."""
+    when no primitive has an axis point) over ``chain`` carried by ``est`` (one transform, or one per
+    primitive), against ``truth`` (target frame)."""
     degs, mms = [], []
-    for prim, true in zip(chain, truth, strict=True):
-        moved = carry_primitive(prim, est)
+    per_prim = est if isinstance(est, tuple) else (est,) * len(chain)
+    for prim, true, transform in zip(chain, truth, per_prim, strict=True):
+        moved = carry_primitive(prim, transform)
         degs.append(angle_between_deg(np.array(moved.dir), np.array(true.dir)))
         if moved.pos is not None and true.pos is not None:
             mms.append(point_line_distance(np.array(true.pos), np.array(moved.pos), np.array(moved.dir)) * 1e3)
@@ -112,8 +117,10 @@ class Pair:
     """The true pose without scale (source -> target): for scene pairs, instance B's placement relative to A's."""
 
 
-def _axis_primitive(pos: np.ndarray, direction: np.ndarray) -> Primitive:
-    return Primitive("rotation", (float(pos[0]), float(pos[1]), float(pos[2])), tuple(float(v) for v in direction), 1.0)  # type: ignore[arg-type]
+def _axis_primitive(pos: np.ndarray, direction: np.ndarray, kind: str = "rotation") -> Primitive:
+    """A primitive of ``kind`` along ``direction`` whose axis passes through ``pos`` (kept for a translation too,
+    to measure where its line lands)."""
+    return Primitive(kind, (float(pos[0]), float(pos[1]), float(pos[2])), tuple(float(v) for v in direction), 1.0)  # type: ignore[arg-type]
 
 
 def partial_target(
@@ -144,7 +151,7 @@ def shape_pair(rng: np.random.Generator, kind: str, points: int) -> Pair:
     src_idx, tgt_idx = idx[: n // 2], idx[n // 2 :]
     source = model.points[src_idx] + rng.normal(scale=NOISE_M, size=(len(src_idx), 3))
     target, truth, keep, view = partial_target(rng, model.points[tgt_idx], model.normals[tgt_idx], model.focus)
-    chain = (_axis_primitive(model.axis_pos, model.axis_dir),)
+    chain = (_axis_primitive(model.axis_pos, model.axis_dir, model.kind),)
     rigid = Similarity(1.0, truth.rotation, truth.translation)
     moved = carry_chain(chain, truth)
     return Pair(model.name, source, target, truth, keep, view, chain, moved, model.focus, model.focus, rigid)
@@ -163,14 +170,31 @@ def scene_pair(rng: np.random.Generator, scene: str, seed_a: int, seed_b: int, p
     return Pair(label, source, target, truth, keep, view, a.truth.chain, moved, a.focus, a.grip, rigid)
 
 
-def flagged(reg: Registration, chain: tuple[Primitive, ...]) -> str:
+def placed(
+    reg: Registration,
+    models: tuple[np.ndarray, np.ndarray],
+    chain: tuple[Primitive, ...],
+    grip: np.ndarray,
+) -> PlacedAxes:
+    """The axes placed as ``pbd transfer`` places them after the registration ``reg`` of (source, target)."""
+    source, target = check_model(models[0], "source"), check_model(models[1], "target")
+    return place_axes(
+        chain, source, target, best=reg.best.transform, grip=grip, threshold_m=reg.threshold_m,
+        spacing_m=reg.spacing_m,
+    )  # fmt: skip
+
+
+def flagged(
+    reg: Registration, chain: tuple[Primitive, ...], axes: PlacedAxes, models: tuple[np.ndarray, np.ndarray]
+) -> str:
     """Why ``pbd transfer`` would warn ("" when it would not): ``fit`` (a poor fit: fitness, surface RMSE or
-    two-way score) and/or ``spread`` (equally good alignments disagreeing on the axes)."""
-    best = reg.best
-    others = [a.transform for a in reg.alignments[1:SPREAD_COUNT] if a.score >= best.score - SPREAD_SCORE_GAP]
-    deg, metres = axis_spread(chain, best.transform, others)
+    two-way score), ``spread`` (equally good alignments placing the axes differently) and/or ``local`` (the
+    model about an axis disagrees with its placement)."""
+    source, target = check_model(models[0], "source"), check_model(models[1], "target")
+    deg, metres = placed_spread(chain, source, target, axes, plausible_alternatives(reg))
     spread = deg > MAX_SPREAD_DEG or metres * 1e3 > MAX_SPREAD_MM
-    return "+".join(why for why, on in (("fit", reg.poor), ("spread", spread)) if on)
+    local = bool(axes.warnings)
+    return "+".join(why for why, on in (("fit", reg.poor), ("spread", spread), ("local", local)) if on)
 
 
 def summary(rows: list[Outcome]) -> tuple[float, float, float, float]:
@@ -185,6 +209,8 @@ class Results:
     """Per-pair outcomes of one benchmark set."""
 
     ours: list[Outcome]
+    glob: list[Outcome]
+    """The global similarity alone (before the axes are placed)."""
     icp: list[Outcome]
     icp_true: list[Outcome]
     warned: list[str]
@@ -194,13 +220,15 @@ class Results:
 
 def run_set(pairs: list[tuple[int, Pair]]) -> Results:
     """Register every pair (ours, plain ICP, rigid ICP from the true pose); one printed row per pair."""
-    res = Results([], [], [], [], [])
+    res = Results([], [], [], [], [], [])
     for i, pair in pairs:
         t0 = time.process_time()
         reg = register_models(pair.source, pair.target, focus=pair.focus, grip=pair.grip, rng=np.random.default_rng(i))
+        axes = placed(reg, (pair.source, pair.target), pair.chain, pair.grip)
         res.cpu_s += time.process_time() - t0
-        res.ours.append(chain_error(reg.best.transform, pair.chain, pair.truth_chain))
-        res.warned.append(flagged(reg, pair.chain))
+        res.ours.append(chain_error(axes.transforms, pair.chain, pair.truth_chain))
+        res.glob.append(chain_error(reg.best.transform, pair.chain, pair.truth_chain))
+        res.warned.append(flagged(reg, pair.chain, axes, (pair.source, pair.target)))
         res.good.append(res.ours[-1].deg <= GOOD_DEG and not res.ours[-1].mm > GOOD_MM)
         res.icp.append(chain_error(plain_icp(pair.source, pair.target), pair.chain, pair.truth_chain))
         rigid_true = pair.rigid_truth
@@ -232,6 +260,7 @@ def print_summary(title: str, res: Results) -> None:
     for label, rows in (
         ("ours (similarity, functional part)", res.ours),
         ("ours, pairs without a warning", trusted or res.ours),
+        ("ours, global similarity alone", res.glob),
         ("plain ICP from identity (paper)", res.icp),
         ("rigid ICP from the true pose, no scale", res.icp_true),
     ):
@@ -265,7 +294,10 @@ def run_pairs(n_pairs: int, n_scene: int, seed: int, points: int, only: int | No
         print_summary("built-in scenes, instance A -> instance B", scene_res)
         if shape_rows:
             both = Results(
-                *(getattr(shape_res, f) + getattr(scene_res, f) for f in ("ours", "icp", "icp_true", "warned", "good"))
+                *(
+                    getattr(shape_res, f) + getattr(scene_res, f)
+                    for f in ("ours", "glob", "icp", "icp_true", "warned", "good")
+                )
             )
             both.cpu_s = shape_res.cpu_s + scene_res.cpu_s
             print_summary("all pairs", both)
@@ -294,6 +326,7 @@ def run_bottles(trials: int, seed: int, points: int, only: int | None = None) ->
     ours: list[Outcome] = []
     icp: list[Outcome] = []
     whole: list[Outcome] = []
+    glob: list[Outcome] = []
     warned = 0
     for i in range(trials) if only is None else [only]:
         rng = np.random.default_rng([seed, 1000 + i])
@@ -306,8 +339,11 @@ def run_bottles(trials: int, seed: int, points: int, only: int | None = None) ->
         target = truth.apply_points(pts) + rng.normal(scale=NOISE_M, size=pts.shape)
         t_pos, t_dir = truth.apply_point(b.axis_pos), truth.apply_direction(b.axis_dir)
         reg = register_models(source, target, focus=a.focus, grip=a.focus, rng=rng)
-        ours.append(axis_error(reg.best.transform, t_pos, t_dir, a))
-        warned += bool(flagged(reg, (_axis_primitive(a.axis_pos, a.axis_dir),)))
+        cap = (_axis_primitive(a.axis_pos, a.axis_dir),)
+        axes = placed(reg, (source, target), cap, a.focus)
+        ours.append(axis_error(axes.transforms[0], t_pos, t_dir, a))
+        glob.append(axis_error(reg.best.transform, t_pos, t_dir, a))
+        warned += bool(flagged(reg, cap, axes, (source, target)))
         reg_w = register_models(source, target, focus=a.focus, params=RegistrationParams(whole=True), rng=rng)
         whole.append(axis_error(reg_w.best.transform, t_pos, t_dir, a))
         icp.append(axis_error(plain_icp(source, target), t_pos, t_dir, a))
@@ -319,7 +355,8 @@ def run_bottles(trials: int, seed: int, points: int, only: int | None = None) ->
     print(f"{'method':38} {'median deg':>10} {'worst deg':>10} {'median mm':>10} {'worst mm':>10}")
     for label, rows in (
         ("ours (functional part: the cap)", ours),
-        ("ours, whole model", whole),
+        ("ours, global similarity alone", glob),
+        ("ours, whole model (global alone)", whole),
         ("plain ICP from identity", icp),
     ):
         med_d, max_d, med_m, max_m = summary(rows)
@@ -338,6 +375,8 @@ class SimOutcome:
     scale: float
     warned: bool
     ours: str
+    replanned: str
+    """The transfer with ``--replan-grasp`` (the grasp planned anew on B's model), executed in B."""
     icp: str
     untransferred: str
     own: str
@@ -369,9 +408,14 @@ def simulate_pair(scene: str, seed_a: int, seed_b: int, work: Path) -> SimOutcom
     tgt_pts = np.asarray(recs[1].object_model, dtype=np.float64)
     target = ObjectRef(scene, None, len(tgt_pts))
     result = transfer_descriptor(source, src_pts, tgt_pts, target, rng=np.random.default_rng(seed_b))
+    replanned = transfer_descriptor(
+        source, src_pts, tgt_pts, target, replan_grasp=True, rng=np.random.default_rng(seed_b)
+    ).descriptor
     truth = truth_descriptor(build_scene(scene, seed_b)).chain
     truth_a = truth_descriptor(build_scene(scene, seed_a)).chain
-    registration_error = chain_error(result.registration.best.transform, truth_a, truth)
+    truth_desc_a = truth_descriptor(build_scene(scene, seed_a))
+    axes = placed(result.registration, (src_pts, tgt_pts), truth_a, grip_points(truth_desc_a, src_pts))
+    registration_error = chain_error(axes.transforms, truth_a, truth)
     moved = result.descriptor.chain
     same = [p.kind for p in moved] == [t.kind for t in truth]
     error = chain_error(Similarity.identity(), moved, truth) if same else Outcome(float("inf"), float("inf"))
@@ -384,6 +428,7 @@ def simulate_pair(scene: str, seed_a: int, seed_b: int, work: Path) -> SimOutcom
         result.registration.best.transform.scale,
         result.poor,
         _execute(result.descriptor, scene, seed_b),
+        _execute(replanned, scene, seed_b),
         _execute(by_icp, scene, seed_b),
         _execute(source, scene, seed_b),
         _execute(source, scene, seed_a),
@@ -394,6 +439,7 @@ def run_simulation(n_pairs: int, seed: int, scene: str = "bottle") -> None:
     """Pairs (A, B) = (seed + 2k, seed + 2k + 1) of ``scene``: transfer the learned descriptor and execute it."""
     print(
         f"{'A':>4} {'B':>4} | {'deg':>5} {'mm':>6} {'reg deg':>7} {'mm':>6} {'scale':>5} | {'ours on B':28} | "
+        f"{'re-planned on B':20} | "
         f"{'plain ICP on B':28} | "
         f"{'untransferred on B':20} | learned, on A"
     )
@@ -405,7 +451,7 @@ def run_simulation(n_pairs: int, seed: int, scene: str = "bottle") -> None:
             rows.append(row)
             print(
                 f"{a:4d} {b:4d} | {row.error.deg:5.2f} {row.error.mm:6.2f} {row.registration_error.deg:7.2f} "
-                f"{row.registration_error.mm:6.2f} {row.scale:5.3f} | {row.ours[:28]:28} | "
+                f"{row.registration_error.mm:6.2f} {row.scale:5.3f} | {row.ours[:28]:28} | {row.replanned[:20]:20} | "
                 f"{row.icp[:28]:28} | {row.untransferred[:20]:20} | {row.own[:40]}{'  WARNED' if row.warned else ''}",
                 flush=True,
             )
@@ -421,12 +467,13 @@ def run_simulation(n_pairs: int, seed: int, scene: str = "bottle") -> None:
     )
     for label, key, where in (
         ("ours", "ours", "B"),
+        ("ours, grasp re-planned", "replanned", "B"),
         ("plain ICP (paper)", "icp", "B"),
         ("untransferred", "untransferred", "B"),
         ("learned descriptor", "own", "A (its own instance)"),
     ):
         wins = sum(getattr(r, key) == "success" for r in rows)
-        print(f"  {label:18} executes on {where}: {wins}/{len(rows)}")
+        print(f"  {label:22} executes on {where}: {wins}/{len(rows)}")
 
 
 def main() -> None:

@@ -8,6 +8,7 @@ registration figures. No file IO: the caller loads both clouds and stores the re
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -17,7 +18,8 @@ from schemas.descriptor import Descriptor, Grasp, ObjectRef
 from tasks.arrays import Points
 from tasks.code_version import code_version
 from tasks.errors import GraspError, TransferError
-from tasks.transfer.carry import axis_spread, carry_chain, carry_grasp, focus_points, grip_points, keep_standoff
+from tasks.transfer.axes import place_axes, placed_spread
+from tasks.transfer.carry import carry_grasp, carry_primitive, focus_points, grip_points, keep_standoff
 from tasks.transfer.clouds import check_model
 from tasks.transfer.registration import Registration, RegistrationParams, register_models
 from tasks.transfer.similarity import Similarity
@@ -51,20 +53,39 @@ class TransferResult:
     warnings: tuple[str, ...]
 
 
+def plausible_alternatives(reg: Registration) -> list[Similarity]:
+    """The runner-up alignments scoring within ``SPREAD_SCORE_GAP`` of the best (at most ``SPREAD_COUNT`` - 1)."""
+    return [a.transform for a in reg.alignments[1:SPREAD_COUNT] if a.score >= reg.best.score - SPREAD_SCORE_GAP]
+
+
+def _finite(value: float) -> float | None:
+    """``value``, or None when it is not finite (JSON has no NaN)."""
+    return value if math.isfinite(value) else None
+
+
 def _replan(grasp: Grasp, target: Points, rng: np.random.Generator, *, strict: bool, warnings: list[str]) -> Grasp:
-    """Re-plan the carried grasp on the target model, seeded by the carried wrist pose."""
+    """Re-plan the carried grasp on the target model, seeded by the carried wrist pose; the carried grasp is kept
+    (with a warning, or ``TransferError`` when ``strict``) when planning fails or finds no force closure."""
     from tasks.grasp import api as grasp_api  # noqa: PLC0415 - the grasp stage loads pybullet
 
     seed = np.asarray(grasp.wrist_position)
     try:
         part = grasp_api.part_near(target, seed)  # the planner grasps the part the hand reaches for
-        return grasp_api.plan_grasp(part, seed, np.asarray(grasp.wrist_orientation, dtype=np.float64), rng)
+        planned = grasp_api.plan_grasp(part, seed, np.asarray(grasp.wrist_orientation, dtype=np.float64), rng)
     except GraspError as err:
         if strict:
             msg = f"grasp re-planning on the target model failed: {err}"
             raise TransferError(msg) from err
         warnings.append(f"grasp re-planning failed ({err}); kept the carried grasp")
         return grasp
+    if planned.quality.get("force_closure") is True:
+        return planned
+    why = f"the re-planned grasp has no force closure ({planned.quality.get('contacts', 0)} contacts)"
+    if strict:
+        msg = f"grasp re-planning on the target model: {why} (--strict)"
+        raise TransferError(msg)
+    warnings.append(f"{why}; kept the carried grasp")
+    return grasp
 
 
 def transfer_descriptor(
@@ -97,22 +118,31 @@ def transfer_descriptor(
     )
     warnings = list(reg.warnings)
     best = reg.best.transform
-    plausible = [a.transform for a in reg.alignments[1:SPREAD_COUNT] if a.score >= reg.best.score - SPREAD_SCORE_GAP]
-    spread_deg, spread_m = axis_spread(desc.chain, best, plausible)
+    placed = place_axes(
+        desc.chain,
+        source,
+        target,
+        best=best,
+        grip=grip,
+        threshold_m=reg.threshold_m,
+        spacing_m=reg.spacing_m,
+    )
+    spread_deg, spread_m = placed_spread(desc.chain, source, target, placed, plausible_alternatives(reg))
     uncertain = spread_deg > MAX_SPREAD_DEG or spread_m * 1e3 > MAX_SPREAD_MM
     if uncertain:
         warnings.append(
             f"poor registration: alignments as good as the best disagree on the axes by {spread_deg:.1f} deg "
             f"and {spread_m * 1e3:.1f} mm (want <= {MAX_SPREAD_DEG:g} deg and {MAX_SPREAD_MM:g} mm)"
         )
-    poor = reg.poor or uncertain
+    warnings.extend(placed.warnings)
+    poor = reg.poor or uncertain or bool(placed.warnings)
     if poor and strict:
         msg = "; ".join(w for w in warnings if w.startswith("poor")) + " (--strict)"
         raise TransferError(msg)
 
     grasp = None
     if desc.grasp is not None:
-        grasp = carry_grasp(desc.grasp, best, grip[0] if len(grip) else None)
+        grasp = carry_grasp(desc.grasp, placed.grasp_transform, grip[0] if len(grip) else None)
         grasp = keep_standoff(grasp, desc.grasp, source, target, STANDOFF_RAY_SPACINGS * reg.spacing_m)
     if replan_grasp:
         if grasp is None:
@@ -128,6 +158,16 @@ def transfer_descriptor(
         "transform": best.matrix().tolist(),
         "axis_spread_deg": spread_deg,
         "axis_spread_mm": spread_m * 1e3,
+        "axes": [
+            {
+                "snapped_mm": snapped * 1e3,
+                "region_points": check.region_points,
+                "back_fitness": _finite(check.back_fitness),
+                "local_turn_deg": check.turn_deg,
+                "local_shift_mm": check.shift_m * 1e3,
+            }
+            for snapped, check in zip(placed.snapped_m, placed.checks, strict=True)
+        ],
         "start": reg.best.start,
         "region": "whole" if reg.crop_radius_m is None else "functional",
         "crop_radius_m": reg.crop_radius_m,
@@ -142,7 +182,7 @@ def transfer_descriptor(
         action=desc.action,
         object=target_object,
         grasp=grasp,
-        chain=carry_chain(desc.chain, best),
+        chain=tuple(carry_primitive(p, t) for p, t in zip(desc.chain, placed.transforms, strict=True)),
         recording_id=desc.recording_id,
         recording_path=desc.recording_path,
         parameters=desc.parameters,

@@ -134,13 +134,22 @@ def grip_points(desc: Descriptor, model: Points) -> Points:
     return np.array([model[int(np.argmin(d2))]], dtype=np.float64)
 
 
-def axis_spread(chain: tuple[Primitive, ...], best: Similarity, others: list[Similarity]) -> tuple[float, float]:
-    """Largest change of any carried axis between ``best`` and ``others``: (degrees, metres point to line)."""
+def axis_spread(
+    chain: tuple[Primitive, ...],
+    best: Similarity | tuple[Similarity, ...],
+    others: list[Similarity] | list[tuple[Similarity, ...]],
+) -> tuple[float, float]:
+    """Largest change of any carried axis between ``best`` and ``others`` (each one transform, or one per
+    primitive): (degrees, metres point to line)."""
+
+    def per_primitive(t: Similarity | tuple[Similarity, ...]) -> tuple[Similarity, ...]:
+        return t if isinstance(t, tuple) else (t,) * len(chain)
+
     worst_deg, worst_m = 0.0, 0.0
-    for prim in chain:
-        ref = carry_primitive(prim, best)
-        for other in others:
-            alt = carry_primitive(prim, other)
+    ref_transforms = per_primitive(best)
+    for other in others:
+        for prim, ref_t, alt_t in zip(chain, ref_transforms, per_primitive(other), strict=True):
+            ref, alt = carry_primitive(prim, ref_t), carry_primitive(prim, alt_t)
             worst_deg = max(worst_deg, angle_between_deg(np.asarray(ref.dir), np.asarray(alt.dir)))
             if ref.pos is not None and alt.pos is not None:
                 dist = point_line_distance(np.asarray(alt.pos), np.asarray(ref.pos), np.asarray(ref.dir))

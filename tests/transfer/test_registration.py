@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -81,6 +83,11 @@ def test_descriptor_moves_with_the_object(bottle_model: shapes.ShapeModel) -> No
     assert info["source"]["id"] == desc.id
     assert info["target_model"] == "b.ply"
     assert info["axis_spread_deg"] < 1.0
+    rot_info, tra_info = info["axes"]  # the cap's axis placed and checked; a translation has no axis point
+    assert rot_info["region_points"] > 40
+    assert rot_info["back_fitness"] > 0.9
+    assert tra_info["region_points"] == 0
+    assert tra_info["back_fitness"] is None
     assert np.array(info["transform"]).shape == (4, 4)
 
 
@@ -127,6 +134,29 @@ def test_replan_failure_warns_or_refuses_under_strict(
     assert out.descriptor.grasp is not None and out.descriptor.grasp.eigengrasps == (0.4, -0.1)
     with pytest.raises(TransferError, match="grasp re-planning on the target model failed: nothing reachable"):
         transfer_descriptor(desc, pts, pts, ref, params=FAST, replan_grasp=True, strict=True, rng=rng)
+
+
+def test_replan_without_force_closure_keeps_the_carried_grasp(bottle_model: shapes.ShapeModel) -> None:
+    rng = np.random.default_rng(54)
+    desc = make_descriptor(bottle_model, "a" * 64)
+    assert desc.grasp is not None
+    top = bottle_model.axis_pos
+    # a palm 0.4 m above the cap approaching sideways: the planner closes the hand on nothing (0 contacts)
+    away = replace(desc.grasp, wrist_position=(float(top[0]), float(top[1]), float(top[2] + 0.4)),
+                   wrist_orientation=(0.0, 0.7071068, 0.0, 0.7071068))  # fmt: skip
+    desc = desc.with_grasp(away)
+    target = bottle_model.points * 1.1
+    ref = ObjectRef("b", "d" * 64, len(target))
+    out = transfer_descriptor(desc, bottle_model.points, target, ref, params=FAST, replan_grasp=True, rng=rng)
+    assert "the re-planned grasp has no force closure (0 contacts); kept the carried grasp" in out.warnings
+    assert out.descriptor.grasp is not None
+    assert out.descriptor.grasp.eigengrasps == (0.4, -0.1)  # the carried one
+    assert not out.poor  # the registration itself is fine
+    with pytest.raises(TransferError, match=r"no force closure \(0 contacts\) \(--strict\)"):
+        transfer_descriptor(
+            desc, bottle_model.points, target, ref, params=FAST, replan_grasp=True, strict=True,
+            rng=np.random.default_rng(54),
+        )  # fmt: skip
 
 
 def test_replan_without_a_grasp_warns(bottle_model: shapes.ShapeModel) -> None:

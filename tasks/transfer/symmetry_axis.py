@@ -1,0 +1,91 @@
+"""The axis of a rotationally symmetric part (a cap, a knob), fitted to the points about it.
+
+A cap is turned about its own symmetry axis. When two instances differ in proportions (a fatter bottle, a wider
+cap), no similarity maps one onto the other, and a robust ICP settles the thinner shape against one side of the
+fatter one: the carried axis ends up beside the true one by about the difference of the radii (10 mm on recorded
+bottles). So for a rotation whose source region is itself symmetric about its axis, the carried axis is moved
+to the target region's own symmetry axis: points are binned in slices along the (carried) direction and one
+centre shared by all slices is fitted with a radius per slice (geometric circle fit, soft-L1 loss).
+
+Lengths in metres; ``pos`` and ``direction`` in the frame of the points.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from tasks.arrays import FloatArray, Points, Vector3
+
+MIN_POINTS = 60
+"""A symmetry fit needs at least this many points in the region."""
+SLICES = 12
+"""Slices along the axis of the region (each gets its own radius)."""
+MIN_SLICE_POINTS = 6
+"""Slices with fewer points are left out of the fit."""
+
+
+@dataclass(frozen=True)
+class SymmetryFit:
+    """A symmetry axis fitted near a given one: its point, and how well the region is a body of revolution."""
+
+    pos: Vector3
+    """The fitted axis point (the given ``pos`` moved across the axis), metres."""
+    offset_m: float
+    """Distance from the given axis to the fitted one, metres."""
+    rms_m: float
+    """Robust RMS of the radial residuals (points within 3 loss scales), metres."""
+    inliers: float
+    """Fraction of the fitted points within 3 loss scales of their slice's circle."""
+    points: int
+
+
+def _basis(direction: Vector3) -> tuple[Vector3, Vector3]:
+    """Two unit vectors perpendicular to unit ``direction`` and to each other."""
+    helper = np.array([1.0, 0.0, 0.0]) if abs(direction[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    u = np.cross(direction, helper)
+    u /= np.linalg.norm(u)
+    v = np.cross(direction, u)
+    return u, v
+
+
+def fit_symmetry_axis(
+    points: Points, pos: Vector3, direction: Vector3, radius_m: float, *, loss_scale_m: float
+) -> SymmetryFit | None:
+    """The symmetry axis (parallel to unit ``direction``) of the points within ``radius_m`` of ``pos`` and of the
+    line through it; None when too few points. ``loss_scale_m``: the soft-L1 scale (about the surface noise)."""
+    rel = points - pos
+    along = rel @ direction
+    lateral2 = (rel**2).sum(axis=1) - along**2
+    sel = (lateral2 <= radius_m**2) & (np.abs(along) <= radius_m)
+    if int(sel.sum()) < MIN_POINTS:
+        return None
+    u, v = _basis(direction)
+    x, y, h = rel[sel] @ u, rel[sel] @ v, along[sel]
+    edges = np.linspace(-radius_m, radius_m, SLICES + 1)
+    slice_of = np.clip(np.searchsorted(edges, h, side="right") - 1, 0, SLICES - 1)
+    counts = np.bincount(slice_of, minlength=SLICES)
+    keep = counts[slice_of] >= MIN_SLICE_POINTS
+    x, y, slice_of = x[keep], y[keep], slice_of[keep]
+    if x.shape[0] < MIN_POINTS:
+        return None
+    used = np.unique(slice_of)
+    index = np.searchsorted(used, slice_of)
+    r0 = np.hypot(x, y)
+    radii0 = np.array([np.median(r0[index == k]) for k in range(len(used))])
+
+    def residuals(params: FloatArray) -> FloatArray:
+        out: FloatArray = np.hypot(x - params[0], y - params[1]) - params[2 + index]
+        return out
+
+    result = least_squares(
+        residuals, np.concatenate([[0.0, 0.0], radii0]), loss="soft_l1", f_scale=loss_scale_m, max_nfev=200
+    )
+    cx, cy = float(result.x[0]), float(result.x[1])
+    res = residuals(result.x)
+    inlier = np.abs(res) <= 3.0 * loss_scale_m
+    rms = float(np.sqrt(np.mean(res[inlier] ** 2))) if inlier.any() else float("inf")
+    centre = pos + cx * u + cy * v
+    return SymmetryFit(centre, float(np.hypot(cx, cy)), rms, float(inlier.mean()), int(x.shape[0]))

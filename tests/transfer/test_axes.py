@@ -1,0 +1,83 @@
+"""Placing carried axes: the symmetry fit of a cap, the snap onto a fatter bottle's cap, the local check."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from schemas.descriptor import Primitive
+from tasks.transfer import shapes
+from tasks.transfer.axes import place_axes
+from tasks.transfer.local_refine import LocalParams, axis_region, check_axis
+from tasks.transfer.similarity import Similarity, point_line_distance
+from tasks.transfer.symmetry_axis import fit_symmetry_axis
+
+CAP_AXIS = Primitive("rotation", (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), 3.0)
+
+
+def _cap_axis(model: shapes.ShapeModel) -> Primitive:
+    top = model.axis_pos
+    return Primitive("rotation", (float(top[0]), float(top[1]), float(top[2])), (0.0, 0.0, 1.0), 3.0)
+
+
+def test_symmetry_fit_finds_the_cap_axis_from_a_point_beside_it(bottle_model: shapes.ShapeModel) -> None:
+    beside = bottle_model.axis_pos + np.array([0.004, -0.003, 0.0])
+    fit = fit_symmetry_axis(bottle_model.points, beside, np.array([0.0, 0.0, 1.0]), 0.03, loss_scale_m=5e-4)
+    assert fit is not None
+    assert fit.offset_m == pytest.approx(0.005, abs=3e-4)
+    assert point_line_distance(bottle_model.axis_pos, fit.pos, np.array([0.0, 0.0, 1.0])) < 3e-4
+
+
+def test_a_box_corner_is_no_body_of_revolution() -> None:
+    rng = np.random.default_rng(3)
+    pts, _ = shapes.sample_parts(shapes.box(np.array([0.1, 0.1, 0.1]), np.zeros(3)), 3000, rng)
+    fit = fit_symmetry_axis(pts, np.array([0.05, 0.05, 0.0]), np.array([0.0, 0.0, 1.0]), 0.04, loss_scale_m=5e-4)
+    assert fit is not None
+    assert fit.offset_m > 0.005  # the fitted "axis" wanders off the edge: not within 1 % of the radius
+
+
+def test_cap_axis_moves_onto_a_fatter_bottles_cap(bottle_model: shapes.ShapeModel) -> None:
+    rng = np.random.default_rng(5)
+    fat = shapes.bottle(rng, n=3000, radius=0.042, cap_radius=0.021)  # no similarity maps the one onto the other
+    truth = Similarity(1.0, shapes.random_rotation(rng), np.array([0.2, -0.1, 0.4]))
+    target = truth.apply_points(fat.points)
+    off = Similarity(1.0, truth.rotation, truth.translation + truth.rotation @ np.array([0.008, 0.0, 0.0]))
+    prim = _cap_axis(bottle_model)
+    placed = place_axes(
+        (prim,), bottle_model.points, target, best=off, grip=bottle_model.focus[:1], threshold_m=0.003,
+        spacing_m=0.002,
+    )  # fmt: skip
+    assert placed.snapped_m[0] == pytest.approx(0.008, abs=1e-3)
+    moved = placed.transforms[0]
+    true_axis = truth.apply_point(fat.axis_pos)
+    assert point_line_distance(true_axis, moved.apply_point(bottle_model.axis_pos), moved.rotation[:, 2]) < 5e-4
+    assert placed.grasp_transform is moved  # the hand on the cap moves with its axis
+    assert placed.warnings == ()
+
+
+def test_local_check_passes_a_right_placement_and_warns_a_shifted_hinge() -> None:
+    rng = np.random.default_rng(9)
+    cab = shapes.cabinet(rng, n=9000)
+    hinge = Primitive("rotation", tuple(float(v) for v in cab.axis_pos), tuple(float(v) for v in cab.axis_dir), 1.0)  # type: ignore[arg-type]
+    normals = cab.normals
+    grip = cab.focus[-1:]
+    right = check_axis(
+        hinge, 0, cab.points, cab.points, normals, source_normals=normals, best=Similarity.identity(), grip=grip,
+        threshold=0.006, params=LocalParams(),
+    )  # fmt: skip
+    assert right.warning is None
+    assert right.back_fitness > 0.95
+    across = np.cross(cab.axis_dir, [0.0, 0.0, 1.0] if abs(cab.axis_dir[2]) < 0.9 else [1.0, 0.0, 0.0])
+    shifted = Similarity(1.0, np.eye(3), 0.06 * across / np.linalg.norm(across))
+    wrong = check_axis(
+        hinge, 0, cab.points, cab.points, normals, source_normals=normals, best=shifted, grip=grip,
+        threshold=0.006, params=LocalParams(),
+    )  # fmt: skip
+    assert wrong.warning is not None
+    assert wrong.warning.startswith("poor registration: axis 0 (rotation)")
+
+
+def test_axis_region_is_a_cylinder_as_long_as_wide() -> None:
+    pts = np.array([[0.0, 0.0, 0.0], [0.05, 0.0, 0.0], [0.0, 0.0, 0.09], [0.0, 0.0, 0.2], [0.2, 0.0, 0.0]])
+    mask = axis_region(pts, np.zeros(3), np.array([0.0, 0.0, 1.0]), 0.1)
+    assert mask.tolist() == [True, True, True, False, False]
