@@ -8,6 +8,11 @@ constraint that follows a trajectory: settle without gravity, switch gravity on 
 sinusoidally along world x, y, z and two diagonals (A (1 - cos ωt), A = 20 mm, 2.5 Hz: 4.9 m/s² peak), two
 cycles each. The grasp holds when the part's pose relative to the palm moves less than ``max_shift_m`` (10 mm)
 and ``max_turn_rad`` (10°) from where it settled; the test stops as soon as either is exceeded.
+
+Other programs (``ShakeParams.gravity`` and ``ShakeParams.motions``): gravity in several directions one phase
+after another (each phase settles 0.5 s, then runs the motions), and motions of any direction, amplitude,
+frequency and length, translations or turns of the palm about an axis through it (``Motion``). The benchmark
+scores with such a program of its own, drawn from its own generator (``bench/grasp.py``).
 """
 
 from __future__ import annotations
@@ -31,10 +36,24 @@ SHAKE_DIRECTIONS: FloatArray = np.array(
 
 
 @dataclass(frozen=True)
+class Motion:
+    """One shake of the palm: along the unit ``direction`` (world) by A (1 - cos ωt) with A = ``amplitude_m``
+    (m), or, when ``turn`` is set, turned about ``direction`` (through the palm origin) by A (1 - cos ωt) with A
+    in rad; ``frequency_hz`` (Hz) for ``cycles`` cycles."""
+
+    direction: tuple[float, float, float]
+    amplitude_m: float
+    frequency_hz: float
+    cycles: float
+    turn: bool = False
+
+
+@dataclass(frozen=True)
 class ShakeParams:
     """Shake test settings: part mass (kg), amplitude (m), frequency (Hz), cycles per direction, how many of
     ``SHAKE_DIRECTIONS`` (x, y, z, xy, yz) to shake along, squeeze past
     contact (rad) and its torque (N m), friction, tolerances; ``close`` False holds the eigengrasp posture itself;
+    ``gravity``: world gravity vectors (m/s²), one phase each; ``motions``: the shakes of each phase (``program``);
     ``part_radius_m``: the free body is the object's points within this distance of the contacts' centroid (the
     grasped part: a handle, a cap), None for the whole object; ``spinning_friction_m``: torsional friction of
     the rubber finger pads (pybullet point contacts have none otherwise); ``solver_iterations``: 150, since
@@ -54,16 +73,33 @@ class ShakeParams:
     part_radius_m: float | None = None
     spinning_friction_m: float = 0.002
     solver_iterations: int = 150
+    gravity: tuple[tuple[float, float, float], ...] = ((0.0, 0.0, -9.81),)
+    motions: tuple[Motion, ...] = ()
+
+    def program(self) -> tuple[Motion, ...]:
+        """The motions of each gravity phase: ``motions``, else the first ``directions`` of ``SHAKE_DIRECTIONS``
+        at ``amplitude_m``, ``frequency_hz`` and ``cycles``."""
+        if self.motions:
+            return self.motions
+        units = (
+            SHAKE_DIRECTIONS[: self.directions] / np.linalg.norm(SHAKE_DIRECTIONS[: self.directions], axis=1)[:, None]
+        )
+        return tuple(
+            Motion((float(u[0]), float(u[1]), float(u[2])), self.amplitude_m, self.frequency_hz, self.cycles)
+            for u in units
+        )
 
 
 @dataclass(frozen=True)
 class ShakeResult:
     """Whether the part stayed in the hand; its largest shift (m) and turn (rad) relative to the palm (up to when
-    the test stopped: a dropped part's shift is only known to exceed the tolerance)."""
+    the test stopped: a dropped part's shift is only known to exceed the tolerance); how many simulated seconds
+    of gravity and shaking it stayed within the tolerances (the whole test when it holds)."""
 
     holds: bool
     max_shift_m: float
     max_turn_rad: float
+    survived_s: float = 0.0
 
 
 def _relative(client_id: int, hand: int, obj: int) -> tuple[FloatArray, Rotation]:
@@ -148,7 +184,6 @@ def shake_test(model: ObjectModel, grasp: Grasp, params: ShakeParams | None = No
         for _ in range(int(0.3 / TIME_STEP_S)):
             pb.stepSimulation(physicsClientId=client)
         ref_pos, ref_rot = _relative(client, hand, obj)
-        pb.setGravity(0.0, 0.0, -9.81, physicsClientId=client)
         shift = 0.0
         turn = 0.0
 
@@ -161,37 +196,70 @@ def shake_test(model: ObjectModel, grasp: Grasp, params: ShakeParams | None = No
         def dropped() -> bool:  # the largest shift and turn only grow: past a tolerance the grasp has failed
             return shift > prm.max_shift_m or turn > prm.max_turn_rad
 
-        for i in range(int(0.5 / TIME_STEP_S)):
-            pb.stepSimulation(physicsClientId=client)
-            if i % 12 == 11:
-                track()
-                if dropped():
-                    break
-        track()
-        omega = 2.0 * math.pi * prm.frequency_hz
-        steps = int(prm.cycles / prm.frequency_hz / TIME_STEP_S)
-        for direction in SHAKE_DIRECTIONS[: prm.directions] if not dropped() else ():
-            unit = direction / np.linalg.norm(direction)
-            for i in range(steps):
-                t = (i + 1) * TIME_STEP_S
-                offset = prm.amplitude_m * (1.0 - math.cos(omega * t)) * unit
-                pb.changeConstraint(
-                    anchor, (pos + offset).tolist(), quat.tolist(), maxForce=5000.0, physicsClientId=client
-                )
+        palm = Rotation.from_quat(quat)
+        steps = 0
+        for gravity in prm.gravity:
+            pb.setGravity(*gravity, physicsClientId=client)
+            for i in range(int(0.5 / TIME_STEP_S)):
                 pb.stepSimulation(physicsClientId=client)
-                if i % 12 == 0:
+                steps += 1
+                if i % 12 == 11:
                     track()
                     if dropped():
                         break
             track()
+            for motion in prm.program() if not dropped() else ():
+                unit = np.array(motion.direction) / np.linalg.norm(motion.direction)
+                omega = 2.0 * math.pi * motion.frequency_hz
+                for i in range(int(motion.cycles / motion.frequency_hz / TIME_STEP_S)):
+                    amount = motion.amplitude_m * (1.0 - math.cos(omega * (i + 1) * TIME_STEP_S))
+                    if motion.turn:
+                        at, q = pos, (Rotation.from_rotvec(amount * unit) * palm).as_quat().tolist()
+                    else:
+                        at, q = pos + amount * unit, quat.tolist()
+                    pb.changeConstraint(anchor, at.tolist(), q, maxForce=5000.0, physicsClientId=client)
+                    pb.stepSimulation(physicsClientId=client)
+                    steps += 1
+                    if i % 12 == 0:
+                        track()
+                        if dropped():
+                            break
+                track()
+                if dropped():
+                    break
             if dropped():
                 break
     finally:
         pb.disconnect(client)
     holds = shift <= prm.max_shift_m and turn <= prm.max_turn_rad
-    return ShakeResult(holds, shift, turn)
+    return ShakeResult(holds, shift, turn, steps * TIME_STEP_S)
 
 
 QUICK_SHAKE = ShakeParams()
-"""The planner's check: the full test (it stops as soon as a grasp fails it, so a failing grasp costs little; one
-cycle along each direction at a third of the shift tolerance still passed grasps that two cycles shook loose)."""
+"""The planner's check until round 4: world gravity, x, y, z and two diagonals (it stops as soon as a grasp fails
+it, so a failing grasp costs little)."""
+CHECK_TILT_RAD = math.radians(30.0)
+"""The planner's check tilts gravity this far from world down, towards the palm's y axis (across the fingers)."""
+CHECK_TURN_RAD = math.radians(6.0)
+"""The planner's check turns the palm by up to twice this about its x axis (the axis a bar or cylinder lies on)."""
+CHECK_CYCLES = 2.0
+"""Cycles of each motion of the planner's check (whole cycles: a motion must end where the next begins)."""
+
+
+def planner_check(quat_xyzw: FloatArray) -> ShakeParams:
+    """The planner's own hold check for a palm orientation (world [x, y, z, w]): gravity world down, then tilted
+    30° towards the palm's y axis (its horizontal part; the x axis when y is vertical); in each, 20 mm at 2.5 Hz
+    along world x, y and z and a 6° turn of the palm about its x axis at 2 Hz, two cycles each (7.8 s simulated;
+    it stops at the first failure)."""
+    palm = Rotation.from_quat(quat_xyzw).as_matrix()
+    side = next((v for v in (palm[:, 1], palm[:, 0]) if math.hypot(v[0], v[1]) > 0.3), np.array([1.0, 0.0, 0.0]))
+    side = np.array([side[0], side[1], 0.0]) / math.hypot(side[0], side[1])
+    tilted = 9.81 * (math.sin(CHECK_TILT_RAD) * side - math.cos(CHECK_TILT_RAD) * np.array([0.0, 0.0, 1.0]))
+    shakes = tuple(
+        Motion(axis, 0.02, 2.5, CHECK_CYCLES) for axis in ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+    )
+    x_axis = (float(palm[0, 0]), float(palm[1, 0]), float(palm[2, 0]))
+    return ShakeParams(
+        gravity=((0.0, 0.0, -9.81), (float(tilted[0]), float(tilted[1]), float(tilted[2]))),
+        motions=(*shakes, Motion(x_axis, CHECK_TURN_RAD, 2.0, CHECK_CYCLES, turn=True)),
+    )
