@@ -154,7 +154,9 @@ def shape_pair(rng: np.random.Generator, kind: str, points: int) -> Pair:
     chain = (_axis_primitive(model.axis_pos, model.axis_dir, model.kind),)
     rigid = Similarity(1.0, truth.rotation, truth.translation)
     moved = carry_chain(chain, truth)
-    return Pair(model.name, source, target, truth, keep, view, chain, moved, model.focus, model.focus, rigid)
+    # the grasped part is focus[0] (knob, handle, cap or lid): one point, as ``pbd transfer`` takes the grip from
+    # the grasp, not the axis points too
+    return Pair(model.name, source, target, truth, keep, view, chain, moved, model.focus, model.focus[:1], rigid)
 
 
 def scene_pair(rng: np.random.Generator, scene: str, seed_a: int, seed_b: int, points: int) -> Pair:

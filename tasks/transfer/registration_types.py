@@ -49,6 +49,10 @@ class RegistrationParams:
     grip_max_m: float = 0.06
     """... and at most this (metres, source frame): about what a Barrett hand closes around, so that on a door
     the lever still fills half the ball rather than a tenth of it."""
+    grip_threshold_factor: float = 2.0
+    """The grip balls match within this many correspondence thresholds: they tell whether the grasped part is
+    there at all (a box's knob or its mirror image's bare face), not how finely it fits, which the functional
+    score judges (at 1x a thin mug handle's fit varies by 0.1 between two equally right alignments)."""
     grip_floor: float = 0.05
     """Added to both one-way fitnesses of the grip balls, so a scan missing the grasped part scores all alike."""
 

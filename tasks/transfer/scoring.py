@@ -48,7 +48,9 @@ def functional_score(
 def grip_score(
     src: Points, tgt: Points, grip: Points, fitted: Similarity, *, params: RegistrationParams, threshold: float
 ) -> float:
-    """Two-way match of the balls around the grip points (source and carried into the target), in (0, 1]."""
+    """Two-way match of the balls around the grip points (source and carried into the target) within
+    ``params.grip_threshold_factor`` x ``threshold`` (target metres), in (0, 1]."""
+    threshold *= params.grip_threshold_factor
     radius = min(params.grip_frac * bbox_diagonal(src), params.grip_max_m)
     ball_s = src[functional_mask(src, grip, radius)]
     ball_t = tgt[functional_mask(tgt, fitted.apply_points(grip), radius * fitted.scale)]

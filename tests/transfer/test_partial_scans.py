@@ -1,0 +1,58 @@
+"""Partial scans: the scale survives a whole model fitted to a scan of part of it, and the grasped part (not
+the fine fit of a thin handle) tells an alignment from its mirror image."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tasks.transfer import shapes
+from tasks.transfer.clouds import downsample, similarity_icp
+from tasks.transfer.registration import both_ways_icp
+from tasks.transfer.registration_types import RegistrationParams
+from tasks.transfer.scoring import grip_score
+from tasks.transfer.similarity import Similarity
+
+
+def _view_scan(model: shapes.ShapeModel, truth: Similarity, direction: np.ndarray, keep: float) -> np.ndarray:
+    """The points of ``model`` facing ``direction`` (a fraction ``keep`` of them), moved by ``truth``, 0.3 mm
+    noise."""
+    rng = np.random.default_rng(5)
+    facing = model.normals @ (direction / np.linalg.norm(direction))
+    pts = model.points[facing > np.quantile(facing, 1.0 - keep)]
+    out: np.ndarray = truth.apply_points(pts) + rng.normal(scale=3e-4, size=pts.shape)
+    return out
+
+
+def test_whole_box_on_a_partial_view_keeps_its_scale() -> None:
+    cabinet = shapes.cabinet(np.random.default_rng(3), n=9000, size=(0.29, 0.37, 0.54))
+    truth = Similarity(0.73, shapes.random_rotation(np.random.default_rng(4)), np.array([0.2, -0.1, 0.3]))
+    scan = _view_scan(cabinet, truth, np.array([0.19, -0.2, 0.96]), 0.5)  # the top and one side
+    voxel = 0.0094  # the registration's middle resolution on this scan (its diagonal / 80)
+    src, tgt = downsample(cabinet.points, voxel / truth.scale), downsample(scan, voxel)
+    forward = similarity_icp(src, tgt, truth, (4.0 * voxel, 1.5 * voxel), 30)
+    both, score = both_ways_icp(cabinet.points, tgt, truth, voxel, 1.5 * voxel)
+    # the model's unseen faces pull towards the scan's edges and shrink it; the scan onto the model does not
+    assert forward.scale < 0.95 * truth.scale
+    assert both.scale == pytest.approx(truth.scale, rel=0.005)
+    assert np.linalg.norm(both.translation - truth.translation) < 3e-3
+    assert 0.5 < score <= 1.0
+
+
+def test_grip_ball_tells_a_knob_from_the_bare_face_but_not_a_fine_offset() -> None:
+    cabinet = shapes.cabinet(np.random.default_rng(6), n=9000)
+    truth = Similarity(1.1, shapes.random_rotation(np.random.default_rng(8)), np.array([0.0, 0.5, 0.1]))
+    target = truth.apply_points(cabinet.points)
+    params, threshold = RegistrationParams(), 0.004
+    knob = cabinet.focus[:1]
+    # the mirror image: a half-turn about the box's vertical axis puts the knob's ball on the bare back face
+    half_turn = Similarity(1.0, np.diag([-1.0, -1.0, 1.0]), np.zeros(3))
+    mirrored = truth.compose(half_turn)
+    # the right alignment shifted by 1.5 thresholds: still the knob, only a looser fit
+    nudged = Similarity(truth.scale, truth.rotation, truth.translation + np.array([0.0, 0.0, 1.5 * threshold]))
+    right = grip_score(cabinet.points, target, knob, truth, params=params, threshold=threshold)
+    loose = grip_score(cabinet.points, target, knob, nudged, params=params, threshold=threshold)
+    wrong = grip_score(cabinet.points, target, knob, mirrored, params=params, threshold=threshold)
+    assert right > 0.99
+    assert loose > 0.9
+    assert wrong < 0.8
