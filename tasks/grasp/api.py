@@ -247,9 +247,8 @@ def plan_on_model(
     closeness (up to ``shake_checks`` a round and ``SHAKE_BUDGET`` in all, within ``CHECK_SECONDS`` of work;
     while none holds and checks are left, ``ROUNDS`` annealing rounds, the second over ±60°, then ``REDRAWS``
     rounds of the demonstrated
-    approach's poses, each after the first on the model's pieces drawn anew, ``redecomposed``), then up to
-    ``FALLBACK_CHECKS`` of the other grasps near it. When none holds: the checked near force closure that held
-    longest.
+    approach's poses, each after the first on the model's pieces drawn anew, ``redecomposed``). When none holds:
+    the checked near force closure that held longest (force closure is kept even then).
     Without any near force closure (nothing within reach of the demonstrated palm), up to ``FALLBACK_CHECKS``
     of: the force closures reached further along the demonstrated approach, the other near grasps, the other
     reached ones; when none holds, the first reached force closure, else the closest grasp near the
@@ -264,8 +263,8 @@ def plan_on_model(
         if k == ROUNDS and not tried:
             break  # the hand fits nowhere near the seed: redrawing the pieces would only find grazing pockets
         cost = SEARCH_COST_S if k < ROUNDS else LINE_COST_S
-        if budget.left == 0 or budget.seconds - cost < HOLD_COST_S:
-            break  # no checks left for what another round would find
+        if closure and (budget.left == 0 or budget.seconds - cost < HOLD_COST_S):
+            break  # no checks left for what another round would find (without a closure yet, rounds go on)
         budget.seconds -= cost
         variant = model if k == 0 else redecomposed(model, rng)
         round_prm = prm if k == 0 else dataclasses.replace(prm, angle_limit_rad=prm.wide_angle_limit_rad)
@@ -288,9 +287,8 @@ def plan_on_model(
     checked = budget
     budget = _ShakeBudget(FALLBACK_CHECKS, rng, checked.seconds)
     others = ordered(lambda c: c.near and rank_tier(c.quality) != 0)
-    if closure:
-        held = budget.first_that_holds(others, FALLBACK_CHECKS)
-        return held or checked.longest(lambda c: c.near) or closure[0][0]
+    if closure:  # force closure is kept (the issue): the one that held longest, not a grasp without it
+        return checked.longest(lambda c: c.near) or closure[0][0]
     reached = ordered(lambda c: c.reach and not c.near and rank_tier(c.quality) == 0)
     further = ordered(lambda c: c.reach and not c.near and rank_tier(c.quality) != 0)
     held = budget.first_that_holds(reached + others + further, FALLBACK_CHECKS)
