@@ -2,9 +2,8 @@
 
 The demonstrator's wrist tracker pose (world frame, metres, quaternion [x, y, z, w]) is turned into a seed palm
 pose through the sensor-to-palm offset; the planner (``planner.py``) searches Barrett eigengrasp amplitudes and
-a palm pose near it and returns the force-closure grasp closest to the demonstration (of the closest, the first
-that holds the part under the planner's own shake check, ``shake.planner_check``).
-``Grasp.wrist_*`` is the pose of the hand base (palm) frame
+a palm pose near it and returns the force-closure grasp closest to the demonstration (of the five closest, the
+first that holds the part under a quick shake test). ``Grasp.wrist_*`` is the pose of the hand base (palm) frame
 of ``barrett.py`` in the world, +z the approach direction; ``Grasp.eigengrasps`` (a1, a2) is the posture the hand
 closes towards: execute by opening the hand at spread 1.13 + a1 (fingers ``barrett.OPEN_FINGER_RAD``), moving the
 palm along +z to the wrist pose and closing the fingers towards a2 (``barrett.CLOSE_AMPLITUDE``: fully) until they
@@ -30,7 +29,7 @@ from tasks.errors import GraspError
 from tasks.grasp import barrett
 from tasks.grasp.object_model import ObjectModel, build_object_model, check_object_points, convex_parts, crop_points
 from tasks.grasp.planner import GraspCandidate, PlannerParams, rank_tier, search
-from tasks.grasp.shake import planner_check, shake_test
+from tasks.grasp.shake import QUICK_SHAKE, shake_test
 from tasks.recording.load import PoseTrack
 
 HAND = "barrett"
@@ -39,24 +38,14 @@ CROP_RADIUS_M = 0.15
 SHAKE_CHECKS = 5
 """Force-closure candidates near the demonstration (in rank order) given the quick shake test."""
 FALLBACK_CHECKS = 5
-"""Further candidates given the shake check when none of those holds (reached ones, then the rest)."""
+"""Further candidates given the quick shake test when none of those holds (reached ones, then the rest)."""
 ROUNDS = 2
-"""Annealing rounds tried while no near force closure holds (the second on the model's pieces drawn anew, its
-wrist angles within ``PlannerParams.wide_angle_limit_rad``: the issue's ±60°)."""
-REDRAWS = 2
-"""Then rounds of the demonstrated approach's poses alone (no annealing, 0.2-0.5 s each), each on pieces drawn
+"""Annealing rounds tried while no near force closure holds (the second on the model's pieces drawn anew)."""
+REDRAWS = 4
+"""Then rounds of the demonstrated approach's poses alone (no annealing, about 0.2 s each), each on pieces drawn
 anew: which of them close into force closure on a scan depends on how its convex pieces fall."""
 SHAKE_BUDGET = 6
-"""Shake checks one plan may run on near force closures (``FALLBACK_CHECKS`` more after them)."""
-CHECK_SECONDS = 26.0
-"""One plan's work, in simulated seconds of shaking (about 0.19 s of CPU each): a check costs what it shook (a grasp
-that holds 11.7, ``HOLD_COST_S``; one that fails stops early), an annealing round ``SEARCH_COST_S``, a round of
-the approach's poses ``LINE_COST_S``. A check or round starts only when a grasp that holds could still be checked
-after it, so a plan stays under about 5 s of CPU."""
-HOLD_COST_S = 11.7
-"""Simulated seconds of the checks of a grasp that holds: ``planner_check`` (7.8) and its tilted phase (3.9)."""
-SEARCH_COST_S = 7.0
-LINE_COST_S = 2.0
+"""Shake tests one plan may run on near force closures (0.05-0.6 s each; ``FALLBACK_CHECKS`` more after them)."""
 SEED_WINDOW_S = 1.0
 """The seed is the stillest wrist pose within this long before the first primitive's start (``stillest_time_ns``)."""
 
@@ -178,48 +167,19 @@ Tried = tuple[GraspCandidate, ObjectModel]
 
 
 class _ShakeBudget:
-    """Shake checks left for one plan (``SHAKE_BUDGET``) and simulated seconds (``CHECK_SECONDS``), and how long
-    each checked candidate held."""
+    """Quick shake tests left for one plan (``SHAKE_BUDGET``)."""
 
-    def __init__(self, count: int, rng: np.random.Generator, seconds: float = CHECK_SECONDS) -> None:
-        """Allow ``count`` checks within ``seconds``; ``rng`` draws the second model's pieces (``redecomposed``)."""
+    def __init__(self, count: int) -> None:
+        """Allow ``count`` tests."""
         self.left = count
-        self.seconds = seconds
-        self.rng = rng
-        self.survived: list[tuple[float, GraspCandidate]] = []
-
-    def holds(self, cand: GraspCandidate, model: ObjectModel) -> bool:
-        """Whether the grasp holds under ``planner_check`` on ``model`` and then, under its tilted-gravity phase,
-        on the model with its pieces drawn anew (a grasp that holds on one draw of a scan's pieces only is a lucky
-        one)."""
-        grasp = grasp_from_candidate(cand)
-        check = planner_check(np.array(grasp.wrist_orientation))
-        first = shake_test(model, grasp, check)
-        survived = first.survived_s
-        second = None
-        if first.holds:
-            tilted = dataclasses.replace(check, gravity=check.gravity[1:])
-            second = shake_test(redecomposed(model, self.rng), grasp, tilted)
-            survived += second.survived_s
-        self.seconds -= survived
-        self.survived.append((survived, cand))
-        return second is not None and second.holds
 
     def first_that_holds(self, candidates: list[Tried], checks: int) -> GraspCandidate | None:
-        """The first of up to ``checks`` (candidate, model) pairs whose grasp ``holds``, while a whole check of a
-        grasp that holds fits in the seconds left."""
+        """The first of up to ``checks`` (candidate, model) pairs whose grasp holds under ``QUICK_SHAKE``."""
         for cand, model in candidates[: min(checks, self.left)]:
-            if self.seconds < HOLD_COST_S:
-                break
             self.left -= 1
-            if self.holds(cand, model):
+            if shake_test(model, grasp_from_candidate(cand), QUICK_SHAKE).holds:
                 return cand
         return None
-
-    def longest(self, keep: Callable[[GraspCandidate], bool]) -> GraspCandidate | None:
-        """Of the checked candidates that ``keep`` accepts, the one that held longest (the first on ties)."""
-        best = [(-t, i, c) for i, (t, c) in enumerate(self.survived) if keep(c)]
-        return min(best, key=lambda b: (b[0], b[1]))[2] if best else None
 
 
 def redecomposed(model: ObjectModel, rng: np.random.Generator) -> ObjectModel:
@@ -242,34 +202,26 @@ def plan_on_model(
     *,
     shake_checks: int = SHAKE_CHECKS,
 ) -> GraspCandidate:
-    """Best candidate on a built model from a palm seed, the first that holds under ``planner_check`` (on the
-    model and on it with its pieces drawn anew) of: the force-closure grasps near the demonstration in order of
-    closeness (up to ``shake_checks`` a round and ``SHAKE_BUDGET`` in all, within ``CHECK_SECONDS`` of work;
-    while none holds and checks are left, ``ROUNDS`` annealing rounds, the second over ±60°, then ``REDRAWS``
-    rounds of the demonstrated
-    approach's poses, each after the first on the model's pieces drawn anew, ``redecomposed``). When none holds:
-    the checked near force closure that held longest (force closure is kept even then).
+    """Best candidate on a built model from a palm seed, the first that holds under ``QUICK_SHAKE`` of: the
+    force-closure grasps near the demonstration in order of closeness (up to ``shake_checks`` a round and
+    ``SHAKE_BUDGET`` in all; while none holds, ``ROUNDS`` annealing rounds then ``REDRAWS`` rounds of the
+    demonstrated approach's poses, each after the first on the model's pieces drawn anew, ``redecomposed``),
+    then up to ``FALLBACK_CHECKS`` of the other grasps near it. When none holds: the first near force closure.
     Without any near force closure (nothing within reach of the demonstrated palm), up to ``FALLBACK_CHECKS``
     of: the force closures reached further along the demonstrated approach, the other near grasps, the other
     reached ones; when none holds, the first reached force closure, else the closest grasp near the
     demonstration (force_closure False: a distant grasp would not be the demonstrated one), else the closest."""
     pos, quat = _check_seed(seed_position, seed_quat_xyzw)
     seed_rot = Rotation.from_quat(quat).as_matrix()
-    budget = _ShakeBudget(SHAKE_BUDGET, rng)
+    budget = _ShakeBudget(SHAKE_BUDGET)
     tried: list[Tried] = []
     closure: list[Tried] = []
     prm = params or PlannerParams()
     for k in range(ROUNDS + REDRAWS):
         if k == ROUNDS and not tried:
             break  # the hand fits nowhere near the seed: redrawing the pieces would only find grazing pockets
-        cost = SEARCH_COST_S if k < ROUNDS else LINE_COST_S
-        if closure and (budget.left == 0 or budget.seconds - cost < HOLD_COST_S):
-            break  # no checks left for what another round would find (without a closure yet, rounds go on)
-        budget.seconds -= cost
         variant = model if k == 0 else redecomposed(model, rng)
-        round_prm = prm if k == 0 else dataclasses.replace(prm, angle_limit_rad=prm.wide_angle_limit_rad)
-        if k >= ROUNDS:
-            round_prm = dataclasses.replace(prm, chains=0)
+        round_prm = prm if k < ROUNDS else dataclasses.replace(prm, chains=0)
         found = [(c, variant) for c in search(variant, seed_rot, pos, rng, round_prm)]
         tried += found
         new = [t for t in found if t[0].near and rank_tier(t[0].quality) == 0]
@@ -284,11 +236,10 @@ def plan_on_model(
     def ordered(keep: Callable[[GraspCandidate], bool]) -> list[Tried]:
         return sorted((t for t in tried if keep(t[0])), key=lambda t: t[0].closeness)
 
-    checked = budget
-    budget = _ShakeBudget(FALLBACK_CHECKS, rng, checked.seconds)
+    budget = _ShakeBudget(FALLBACK_CHECKS)
     others = ordered(lambda c: c.near and rank_tier(c.quality) != 0)
-    if closure:  # force closure is kept (the issue): the one that held longest, not a grasp without it
-        return checked.longest(lambda c: c.near) or closure[0][0]
+    if closure:
+        return budget.first_that_holds(others, FALLBACK_CHECKS) or closure[0][0]
     reached = ordered(lambda c: c.reach and not c.near and rank_tier(c.quality) == 0)
     further = ordered(lambda c: c.reach and not c.near and rank_tier(c.quality) != 0)
     held = budget.first_that_holds(reached + others + further, FALLBACK_CHECKS)

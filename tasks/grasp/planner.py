@@ -3,18 +3,14 @@
 Search space (GraspIt!'s approach space around the demonstrated palm pose): x = (a1, a2, d, θ1, θ2) with
 eigengrasp amplitudes a1, a2 in ±4, approach distance d in -30..200 mm (palm to the pivot point along the approach
 axis, negative = past it), roll θ1 about the approach axis and tilt θ2 about the palm x axis, both
-within ±25° in the first round and within the issue's (GraspIt!'s) ±60° in the second (``api.plan_on_model``: run
-only while no near force closure holds; ranking by closeness keeps the distant grasps it finds last), both pivoting
-about the point where the seed's approach ray meets the object.
-Energy is the contact energy over the virtual contacts (``contact_energy``), vectorised with
+within ±25° (GraspIt!'s ±60° let distant grasps win) and both pivoting about the point where the seed's approach
+ray meets the object. Energy is the contact energy over the virtual contacts (``contact_energy``), vectorised with
 a KD-tree over the object points; states where the hand's surface samples enter the object are illegal. The
-demonstrated pose itself, a few poses on its approach (also rolled to line the fingers up with a bar or cylinder
-the demonstrator held askew, ``bar_roll``), and the lowest-energy distinct states (in three spread ranges) are
-then executed in pybullet as the robot executes a grasp: the hand open at the state's spread (fingers
+demonstrated pose itself, a few poses on its approach, and the lowest-energy distinct states (in three spread
+ranges) are then executed in pybullet as the robot executes a grasp: the hand open at the state's spread (fingers
 ``barrett.OPEN_FINGER_RAD``), approach up to 30 mm to contact, close the fingers until contact; epsilon and
-volume of the grasp wrench space. Grasps off the demonstrated approach by more than 20 mm, or turned more than
-25° (unless only rolled about the approach, up to 60°), are set aside; the rest, force closure first, are ranked by
-closeness to the demonstration (``closeness``).
+volume of the grasp wrench space. Grasps off the demonstrated approach by more than 20 mm or 25° are set aside;
+the rest, force closure first, are ranked by closeness to the demonstration (``closeness``).
 """
 
 from __future__ import annotations
@@ -58,23 +54,16 @@ the demonstrated palm; 2 mm lost it on the sample recordings, seeded 2 mm off): 
 (``closing.close_fingers`` stops a finger only when blocked)."""
 BACK_OFF_M = 0.02
 """A pre-grasp found in collision in pybullet is moved back along its approach axis by up to 20 mm."""
-BAR_RADIUS_M = 0.05
-BAR_FAN = 0.1
-BAR_RATIO = 0.3
-MIN_BAR_POINTS = 10
-"""``bar_roll``: the object's axis near where the demonstrated approach meets it, from the normals within 50 mm."""
 
 
 @dataclass(frozen=True)
 class PlannerParams:
     """Planner settings: annealing steps and chains, candidates tried in pybullet, ranges (the wrist angles
-    within ±25° in the first annealing round, ``wide_angle_limit_rad`` ±60° in the second; set both to 60° to
-    anneal every round over the issue's range), friction; ranking scales (lateral offset from the
+    within ±25°: a grasp must stay near the demonstration), friction; ranking scales (lateral offset from the
     demonstrated approach 20 mm, angle 20°, advance along it 50 mm, behind the demonstrated palm 10 mm) and the
     neighbourhood a grasp must lie in (20 mm off the demonstrated approach, 25°, at most 12 mm past the
     demonstrated palm along it: a palm moved 14-29 mm onto the bottle's cap left fewer than two fingers on it in
-    execution; a palm only rolled about the demonstrated approach stays near up to ``near_roll_rad``, 60°).
-    ``focus_radius_m``: when set,
+    execution). ``focus_radius_m``: when set,
     only contacts that close to where the demonstrated approach meets the object count for the quality (off by
     default: at 75 mm it cut force closure on the benchmark's randomised objects from 86% to 19%)."""
 
@@ -84,7 +73,6 @@ class PlannerParams:
     schedule: Schedule = field(default_factory=Schedule)
     distance_range_m: tuple[float, float] = (-0.03, 0.20)
     angle_limit_rad: float = math.radians(25.0)
-    wide_angle_limit_rad: float = math.radians(60.0)
     amplitude_limit: float = barrett.AMPLITUDE_LIMIT
     approach_max_m: float = 0.03
     mu: float = DEFAULT_MU
@@ -94,7 +82,6 @@ class PlannerParams:
     behind_scale_m: float = 0.01
     near_position_m: float = 0.02
     near_angle_rad: float = math.radians(25.0)
-    near_roll_rad: float = math.radians(60.0)
     near_advance_m: float = 0.012
     max_pivot_m: float = 0.20
     focus_radius_m: float | None = None
@@ -158,31 +145,6 @@ def pivot_distance(model: ObjectModel, seed_rot: FloatArray, seed_pos: Vector3, 
     return float(np.clip(along[i], 0.0, limit_m))
 
 
-def bar_roll(model: ObjectModel, space: ApproachSpace, limit_rad: float) -> float | None:
-    """Roll (rad) about the seed's approach that lines the palm's x axis (the axis the fingers wrap) up with the
-    object's axis where the approach meets it: of the points within ``BAR_RADIUS_M`` of that point, the direction
-    their normals are all across (the least eigenvector of the normals' scatter; a bar's or cylinder's normals
-    fan out about its axis: the middle eigenvalue is at least ``BAR_FAN`` of the sum and the least under
-    ``BAR_RATIO`` of it), when it lies across the approach (within 45° of the palm plane). None when there is no
-    such axis (a flat face: one normal), the roll is under 5° or over ``limit_rad``."""
-    focus = space.seed_pos + space.seed_rot[:, 2] * space.pivot_m
-    idx = model.tree.query_ball_point(focus, BAR_RADIUS_M)
-    if len(idx) < MIN_BAR_POINTS:
-        return None
-    normals = model.normals[idx]
-    values, vectors = np.linalg.eigh(normals.T @ normals / len(idx))
-    if values[1] < BAR_FAN or values[0] > BAR_RATIO * values[1]:
-        return None
-    axis = space.seed_rot.T @ vectors[:, 0]
-    if math.hypot(float(axis[0]), float(axis[1])) < math.cos(math.radians(45.0)):
-        return None
-    roll = math.atan2(float(axis[1]), float(axis[0]))
-    roll = (roll + math.pi / 2) % math.pi - math.pi / 2
-    if abs(roll) < math.radians(5.0) or abs(roll) > limit_rad:
-        return None
-    return roll
-
-
 def contact_energy(model: ObjectModel, rot: FloatArray, pos: Vector3, dofs: FloatArray) -> float:
     """Mean over the virtual contacts of |distance| + 50 (1 - n·p) in mm (n into the object, p the contact's
     approach direction, both world), or ``ILLEGAL_ENERGY`` when the hand enters the object."""
@@ -225,14 +187,11 @@ def rank_tier(quality: GraspQuality) -> int:
 class DemoOffset:
     """Where a palm pose lies from the demonstration: offset (m) from the demonstrated approach segment (the
     demonstrated palm moved up to ``approach_max_m`` along its approach, no further than the object), advance
-    (m) along the approach from the demonstrated palm (negative = behind it), angle (rad) between the palms, and
-    that angle split into the tilt of the approach axis and the roll about it (rad)."""
+    (m) along the approach from the demonstrated palm (negative = behind it), angle (rad) between the palms."""
 
     lateral_m: float
     advance_m: float
     angle_rad: float
-    tilt_rad: float = 0.0
-    roll_rad: float = 0.0
 
 
 def demo_offset(rot: FloatArray, pos: Vector3, space: ApproachSpace, params: PlannerParams) -> DemoOffset:
@@ -242,15 +201,8 @@ def demo_offset(rot: FloatArray, pos: Vector3, space: ApproachSpace, params: Pla
     advance = float(rel @ approach)
     on_segment = float(np.clip(advance, 0.0, min(max(space.pivot_m, 0.0), params.approach_max_m)))
     lateral = float(np.linalg.norm(rel - on_segment * approach))
-    relative = space.seed_rot.T @ rot
-    angle = float(Rotation.from_matrix(relative).magnitude())
-    tilt = math.acos(float(np.clip(relative[2, 2], -1.0, 1.0)))
-    swing_axis = np.cross([0.0, 0.0, 1.0], relative[:, 2])
-    norm = float(np.linalg.norm(swing_axis))
-    swing = Rotation.from_rotvec(swing_axis / norm * tilt) if norm > 1e-9 else Rotation.identity()
-    twist = (swing.inv() * Rotation.from_matrix(relative)).as_matrix()
-    roll = abs(math.atan2(float(twist[1, 0]), float(twist[0, 0])))
-    return DemoOffset(lateral, advance, angle, tilt, roll)
+    angle = float(Rotation.from_matrix(space.seed_rot.T @ rot).magnitude())
+    return DemoOffset(lateral, advance, angle)
 
 
 def closeness(offset: DemoOffset, params: PlannerParams) -> float:
@@ -265,14 +217,13 @@ def closeness(offset: DemoOffset, params: PlannerParams) -> float:
 
 
 def is_near(offset: DemoOffset, params: PlannerParams) -> bool:
-    """Whether a grasp lies in the demonstration's neighbourhood: lateral offset and advance along the
-    demonstrated approach within the limits, and either the whole angle within ``near_angle_rad`` or the approach
-    tilted by no more than that and the palm rolled about it by up to ``near_roll_rad`` (the same approach, the
-    wrist turned: how a hand lines its fingers up with a bar the demonstrator held askew)."""
-    angle_ok = offset.angle_rad <= params.near_angle_rad or (
-        offset.tilt_rad <= params.near_angle_rad and offset.roll_rad <= params.near_roll_rad
+    """Whether a grasp lies in the demonstration's neighbourhood (lateral offset, angle and advance along the
+    demonstrated approach within the limits)."""
+    return (
+        offset.lateral_m <= params.near_position_m
+        and offset.angle_rad <= params.near_angle_rad
+        and offset.advance_m <= params.near_advance_m
     )
-    return offset.lateral_m <= params.near_position_m and angle_ok and offset.advance_m <= params.near_advance_m
 
 
 def is_reach(offset: DemoOffset, params: PlannerParams) -> bool:
@@ -367,11 +318,7 @@ def search(
         sub = AnnealTrace(pooled.states[sel], pooled.energies[sel], 0)
         picks += [(sub.states[i], float(sub.energies[i])) for i in _select(sub, per_bin, upper - lower)]
 
-    line_poses = list(LINE_POSES)
-    aligned = bar_roll(model, space, prm.near_roll_rad)
-    if aligned is not None:  # the demonstrated palm rolled to wrap the bar it held askew (ranked by the roll)
-        line_poses += [(back, aligned) for back in (0.0, 0.02)]
-    for a1, (back, roll) in itertools.product(LINE_SPREADS, line_poses):
+    for a1, (back, roll) in itertools.product(LINE_SPREADS, LINE_POSES):
         x = np.array([a1, 0.0, space.pivot_m + back, roll, 0.0])
         picks.insert(0, (x, energy(x)))
     focus = seed_pos + seed_rot[:, 2] * space.pivot_m

@@ -13,15 +13,7 @@ from tasks.grasp import barrett
 from tasks.grasp.anneal import ILLEGAL_ENERGY, Schedule, ingber_draw
 from tasks.grasp.api import plan_grasp
 from tasks.grasp.object_model import build_object_model
-from tasks.grasp.planner import (
-    ApproachSpace,
-    PlannerParams,
-    bar_roll,
-    contact_energy,
-    demo_offset,
-    is_near,
-    pivot_distance,
-)
+from tasks.grasp.planner import contact_energy
 
 from .conftest import HANDLE_CENTER, PALM_DOWN
 
@@ -65,28 +57,3 @@ def test_planner_is_deterministic_for_a_seeded_rng(handle_points: tuple[Points, 
     b = plan_grasp(handle_points[0], seed, PALM_DOWN, np.random.default_rng(5))
     assert a == b
     assert a.quality["force_closure"] is True
-
-
-def test_bar_roll_lines_the_fingers_up_with_a_cylinder_held_askew(handle_points: tuple[Points, Points]) -> None:
-    model = build_object_model(handle_points[0], np.random.default_rng(0))
-    askew = (Rotation.from_quat(PALM_DOWN) * Rotation.from_euler("z", 40, degrees=True)).as_matrix()
-    seed = HANDLE_CENTER + np.array([0.0, 0.0, 0.06])
-    space = ApproachSpace(askew, seed, pivot_distance(model, askew, seed, 0.2))
-    roll = bar_roll(model, space, math.radians(60.0))
-    assert roll is not None
-    assert abs(math.degrees(roll)) == pytest.approx(40.0, abs=4.0)
-    rolled = space.pose(np.array([0.0, 0.0, space.pivot_m, roll, 0.0]))[0]
-    assert abs(rolled[:, 0] @ np.array([1.0, 0.0, 0.0])) > math.cos(math.radians(4.0))  # palm x along the bar
-    offset = demo_offset(rolled, seed, space, PlannerParams())
-    assert offset.tilt_rad == pytest.approx(0.0, abs=1e-6)
-    assert offset.roll_rad == pytest.approx(abs(roll), abs=1e-6)
-    assert is_near(offset, PlannerParams())  # rolled 40° about the demonstrated approach: still near
-    assert not is_near(offset, PlannerParams(near_roll_rad=math.radians(25.0)))
-
-
-def test_bar_roll_is_none_on_a_flat_face(box_points: Points) -> None:
-    model = build_object_model(box_points, np.random.default_rng(0))
-    rot = Rotation.from_quat(PALM_DOWN).as_matrix()
-    seed = np.array([0.5, 0.1, 0.3 + 0.04 + 0.05])
-    space = ApproachSpace(rot, seed, pivot_distance(model, rot, seed, 0.2))
-    assert bar_roll(model, space, math.radians(60.0)) is None
