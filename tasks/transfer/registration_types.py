@@ -38,6 +38,10 @@ class RegistrationParams:
     """Below this two-way score (how much of each model the other explains) it is poor: a partial scan of the
     same object scores 0.7 and more, another instance of a scene 0.8 and more, a sideboard turned by 90 degrees
     0.49, a shrunken source sitting on a patch of the target far less."""
+    poor_rank_score: float = 0.3
+    """Below this ranking score (the functional part's and the grasped part's two-way fit) it is poor as well:
+    right alignments of the benchmark's pairs score 0.6 and more, a sliding door shrunk onto half of another one
+    0.12 (its whole-model score 0.59 passes)."""
     min_crop_points: int = 150
     context_weight: float = 0.3
     """Total weight of the rest of the model against the functional part's in the final refinement (0: the

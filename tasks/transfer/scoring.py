@@ -68,17 +68,19 @@ def ranked(alignments: list[Alignment]) -> list[Alignment]:
 
 
 def poor_fit_warning(best: Alignment, params: RegistrationParams, threshold: float) -> str | None:
-    """The warning when the best alignment fits poorly (fitness, surface RMSE against ``threshold`` or the
-    two-way score beyond the limits of ``params``), else None."""
+    """The warning when the best alignment fits poorly (fitness, surface RMSE against ``threshold``, the two-way
+    score or the ranking score beyond the limits of ``params``), else None."""
     poor = (
         best.fitness < params.poor_fitness
         or best.plane_rmse_m > params.poor_plane_frac * threshold
         or best.model_score < params.poor_score
+        or best.score < params.poor_rank_score
     )
     if not poor:
         return None
     return (
         f"poor registration: fitness {best.fitness:.2f} (want >= {params.poor_fitness}), "
         f"surface RMSE {best.plane_rmse_m * 1e3:.2f} mm (want <= {params.poor_plane_frac * threshold * 1e3:.2f}), "
-        f"two-way score {best.model_score:.2f} (want >= {params.poor_score})"
+        f"two-way score {best.model_score:.2f} (want >= {params.poor_score}), "
+        f"functional and grip score {best.score:.2f} (want >= {params.poor_rank_score})"
     )

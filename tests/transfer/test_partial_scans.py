@@ -3,14 +3,16 @@ the fine fit of a thin handle) tells an alignment from its mirror image."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from tasks.transfer import shapes
 from tasks.transfer.clouds import downsample, similarity_icp
 from tasks.transfer.registration import both_ways_icp
-from tasks.transfer.registration_types import RegistrationParams
-from tasks.transfer.scoring import grip_score
+from tasks.transfer.registration_types import Alignment, RegistrationParams
+from tasks.transfer.scoring import grip_score, poor_fit_warning
 from tasks.transfer.similarity import Similarity
 
 
@@ -56,3 +58,13 @@ def test_grip_ball_tells_a_knob_from_the_bare_face_but_not_a_fine_offset() -> No
     assert right > 0.99
     assert loose > 0.9
     assert wrong < 0.8
+
+
+def test_a_poor_functional_and_grip_fit_is_poor_even_when_the_whole_models_fit() -> None:
+    params, threshold = RegistrationParams(), 0.027  # surface RMSE 0.35 x the threshold, as on that pair
+    # the sliding-door pair of the benchmark shrunk onto half of the other door: whole-model score 0.59
+    shrunk = Alignment(Similarity.identity(), 0.89, 0.006, 0.0094, 0.8, 0.59, 0.12, "pca-3")
+    warning = poor_fit_warning(shrunk, params, threshold)
+    assert warning is not None
+    assert "functional and grip score 0.12 (want >= 0.3)" in warning
+    assert poor_fit_warning(replace(shrunk, score=0.78), params, threshold) is None
