@@ -238,28 +238,3 @@ def shake_test(model: ObjectModel, grasp: Grasp, params: ShakeParams | None = No
 QUICK_SHAKE = ShakeParams()
 """The planner's check until round 4: world gravity, x, y, z and two diagonals (it stops as soon as a grasp fails
 it, so a failing grasp costs little)."""
-CHECK_TILT_RAD = math.radians(30.0)
-"""The planner's check tilts gravity this far from world down, towards the palm's y axis (across the fingers)."""
-CHECK_TURN_RAD = math.radians(6.0)
-"""The planner's check turns the palm by up to twice this about its x axis (the axis a bar or cylinder lies on)."""
-CHECK_CYCLES = 2.0
-"""Cycles of each motion of the planner's check (whole cycles: a motion must end where the next begins)."""
-
-
-def planner_check(quat_xyzw: FloatArray) -> ShakeParams:
-    """The planner's own hold check for a palm orientation (world [x, y, z, w]): gravity world down, then tilted
-    30° towards the palm's y axis (its horizontal part; the x axis when y is vertical); in each, 20 mm at 2.5 Hz
-    along world x, y and z and a 6° turn of the palm about its x axis at 2 Hz, two cycles each (7.8 s simulated;
-    it stops at the first failure)."""
-    palm = Rotation.from_quat(quat_xyzw).as_matrix()
-    side = next((v for v in (palm[:, 1], palm[:, 0]) if math.hypot(v[0], v[1]) > 0.3), np.array([1.0, 0.0, 0.0]))
-    side = np.array([side[0], side[1], 0.0]) / math.hypot(side[0], side[1])
-    tilted = 9.81 * (math.sin(CHECK_TILT_RAD) * side - math.cos(CHECK_TILT_RAD) * np.array([0.0, 0.0, 1.0]))
-    shakes = tuple(
-        Motion(axis, 0.02, 2.5, CHECK_CYCLES) for axis in ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
-    )
-    x_axis = (float(palm[0, 0]), float(palm[1, 0]), float(palm[2, 0]))
-    return ShakeParams(
-        gravity=((0.0, 0.0, -9.81), (float(tilted[0]), float(tilted[1]), float(tilted[2]))),
-        motions=(*shakes, Motion(x_axis, CHECK_TURN_RAD, 2.0, CHECK_CYCLES, turn=True)),
-    )
