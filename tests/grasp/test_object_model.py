@@ -38,7 +38,8 @@ def test_convex_pieces_cover_the_cloud_and_collide_in_pybullet() -> None:
     client = pb.connect(pb.DIRECT)
     try:
         body = load_object(client, model)
-        probe = pb.createMultiBody(0, pb.createCollisionShape(pb.GEOM_SPHERE, radius=0.005, physicsClientId=client))
+        sphere = pb.createCollisionShape(pb.GEOM_SPHERE, radius=0.005, physicsClientId=client)
+        probe = pb.createMultiBody(0, sphere, physicsClientId=client)
         pb.resetBasePositionAndOrientation(probe, [0.0, 0.0, 0.05], [0, 0, 0, 1], physicsClientId=client)
         gap = min(p[8] for p in pb.getClosestPoints(probe, body, 0.1, physicsClientId=client))
         assert gap == pytest.approx(0.05 - 0.03 - 0.005, abs=0.003)  # sphere 15 mm above the top face
