@@ -55,6 +55,10 @@ class LocalParams:
     """... and it counts as well covered when both its one-way fitnesses reach this ..."""
     better_fit: float = 0.03
     """... and its local refinement then fits at least this much better ..."""
+    saturated: float = 0.99
+    """Both fitnesses at least this: the region fits within the threshold either way, so a local refinement that
+    moves the axis beyond the limits below shows the fit cannot place it (a door's lever 15 mm off under a 28 mm
+    threshold: 1.0 -> 1.0 with the axis moved 27 mm) ..."""
     max_turn_deg: float = 5.0
     max_shift_m: float = 0.005
     """... with the carried axis turned or moved beyond these: the region disagrees with the global alignment."""
@@ -118,6 +122,14 @@ def _judge(check: LocalCheck, kind: str, params: LocalParams) -> str | None:
     covered = pinned and min(check.fitness_global, check.back_fitness) >= params.covered
     better = check.fitness_local >= check.fitness_global + params.better_fit
     moved = check.turn_deg > params.max_turn_deg or check.shift_m > params.max_shift_m
+    saturated = min(check.fitness_global, check.fitness_local) >= params.saturated
+    if covered and saturated and moved:
+        return (
+            f"poor registration: axis {check.index} ({kind}): the model about it fits as well "
+            f"({check.fitness_global:.2f} -> {check.fitness_local:.2f}) with the axis turned {check.turn_deg:.1f} deg "
+            f"and moved {check.shift_m * 1e3:.1f} mm from the global alignment: the fit does not place it within "
+            f"{params.max_turn_deg:g} deg and {params.max_shift_m * 1e3:g} mm"
+        )
     if covered and better and moved:
         return (
             f"poor registration: axis {check.index} ({kind}): the model about it fits better "
