@@ -4,7 +4,8 @@ Pipeline (all clouds are (n, 3) float64 metres, each in its own object/world fra
 
 1. Global starts (``global_starts``): PCA, FPFH + RANSAC and FGR candidates in normalised space, each refined
    by similarity ICP, the distinct ones back in metres plus their half-turn siblings.
-2. Each candidate is refined here: similarity ICP on the whole model at a middle resolution, then a
+2. Each candidate is refined here: similarity ICP on the whole model at a middle resolution, the model onto
+   the target and the target onto the model (``both_ways_icp``: a whole model shrinks onto a partial scan), then a
    point-to-plane ICP with scale (``plane_icp``) on the functional part of the source (points within
    ``crop_radius_m`` of the focus points: the grasp and the chain's axis points, the rest of the model at a small
    weight), or on the whole model.
