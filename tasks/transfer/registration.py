@@ -170,6 +170,23 @@ def both_ways_icp(
     return best, best_score
 
 
+def whole_model_fits(
+    src: Points, tgt_mid: O3dCloud, start: Similarity, voxel: float, threshold: float
+) -> list[tuple[Similarity, float]]:
+    """Whole-model fits of one start to refine further, each with its two-way score: the model onto the target
+    (``similarity_icp``), and ``both_ways_icp``'s fit as well when its scale differs from that one's by more than
+    5 %. Both are kept because neither scale is always right: a whole model fitted onto a partial scan shrinks
+    (a cabinet), while two scans of objects of other proportions (a recorded bottle onto another) fitted both ways
+    take the body's scale, 28 % off the cap's, from which the cap's refinement does not come back."""
+    mid = downsample(src, voxel / start.scale)
+    forward = similarity_icp(mid, tgt_mid, start, (4.0 * voxel, threshold), 30)
+    fits = [(forward, two_way_score(mid, tgt_mid, forward, threshold))]
+    both, both_score = both_ways_icp(src, tgt_mid, start, voxel, threshold)
+    if abs(math.log(both.scale / forward.scale)) > RESAMPLE_RESCALE:
+        fits.append((both, both_score))
+    return fits
+
+
 def register_models(
     source: Points,
     target: Points,
@@ -213,8 +230,13 @@ def register_models(
             [np.ones(len(raw_sample)), np.full(len(context), params.context_weight * len(raw_sample) / len(context))]
         )
     alignments: list[Alignment] = []
-    for name, start in kept:
-        fitted, model_score = both_ways_icp(src, fine.mid, start, fine.mid_voxel, mid_threshold)
+    whole = [
+        (name, fit)
+        for name, start in kept
+        for fit in whole_model_fits(src, fine.mid, start, fine.mid_voxel, mid_threshold)
+    ]
+    for name, (whole_fit, model_score) in whole:
+        fitted = whole_fit
         score = model_score
         used_fine = downsample(src, fine.fine_voxel / fitted.scale)
         if crop_radius is not None and focus is not None:
