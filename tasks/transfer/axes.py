@@ -23,9 +23,9 @@ import numpy as np
 from schemas.descriptor import Primitive
 from tasks.arrays import Points
 from tasks.transfer.carry import axis_spread
-from tasks.transfer.clouds import median_spacing, to_cloud, with_normals
-from tasks.transfer.local_refine import LocalCheck, LocalParams, check_axis
-from tasks.transfer.registration import SURFACE_NORMAL_NN, SURFACE_NORMAL_SPACINGS
+from tasks.transfer.clouds import median_spacing
+from tasks.transfer.local_refine import LocalCheck, LocalParams, check_axis, region_size
+from tasks.transfer.registration import surface_normals
 from tasks.transfer.similarity import Similarity, point_line_distance
 from tasks.transfer.symmetry_axis import fit_symmetry_axis
 
@@ -51,14 +51,6 @@ class PlacedAxes:
     checks: tuple[LocalCheck, ...]
     grasp_transform: Similarity
     warnings: tuple[str, ...]
-
-
-def target_normals(target: Points, spacing_m: float) -> Points:
-    """Unit surface normals of model points (median spacing ``spacing_m``) as the fine registration stage
-    estimates them."""
-    cloud = with_normals(to_cloud(target), SURFACE_NORMAL_SPACINGS * spacing_m, max_nn=SURFACE_NORMAL_NN)
-    out: Points = np.asarray(cloud.normals, dtype=np.float64)
-    return out
 
 
 def _snap(prim: Primitive, source: Points, target: Points, best: Similarity, radius: float) -> Similarity | None:
@@ -100,10 +92,9 @@ def place_axes(
     ``grip``: (g, 3) grasped-part points (source frame); ``threshold_m`` and ``spacing_m``: the registration's
     final correspondence threshold and the target's median point spacing."""
     params = params or LocalParams()
-    span = float(np.linalg.norm(np.ptp(source, axis=0)))
-    radius = min(params.radius_frac * span, params.radius_max_m)
-    normals = target_normals(target, spacing_m)
-    normals_s = target_normals(source, median_spacing(source))
+    span, radius = region_size(source, params)
+    normals = surface_normals(target, spacing_m)
+    normals_s = surface_normals(source, median_spacing(source))
     transforms: list[Similarity] = []
     snapped: list[float] = []
     checks: list[LocalCheck] = []
@@ -148,8 +139,7 @@ def snapped_transforms(
     """One transform per primitive: ``transform``, moved onto the target's symmetry axis where ``place_axes``
     would move it (no local check): how an alternative alignment would place the axes."""
     params = params or LocalParams()
-    span = float(np.linalg.norm(np.ptp(source, axis=0)))
-    radius = min(params.radius_frac * span, params.radius_max_m)
+    _, radius = region_size(source, params)
     return tuple(_snap(prim, source, target, transform, radius) or transform for prim in chain)
 
 

@@ -86,6 +86,12 @@ class LocalCheck:
     warning: str | None
 
 
+def region_size(source: Points, params: LocalParams) -> tuple[float, float]:
+    """The source's bounding-box diagonal and the radius of the regions about its axes (source metres)."""
+    span = float(np.linalg.norm(np.ptp(source, axis=0)))
+    return span, min(params.radius_frac * span, params.radius_max_m)
+
+
 def axis_region(points: Points, pos: Vector3, direction: Vector3, radius_m: float) -> BoolArray:
     """Points within ``radius_m`` of the line through ``pos`` along unit ``direction`` and within ``radius_m`` of
     ``pos`` along it (a cylinder as long as it is wide; metres, one frame)."""
@@ -158,8 +164,7 @@ def check_axis(
     empty = LocalCheck(index, 0, 0.0, 0.0, float("nan"), float("nan"), float("nan"), 0.0, None)
     if prim.pos is None:
         return empty
-    span = float(np.linalg.norm(np.ptp(source, axis=0)))
-    radius = min(params.radius_frac * span, params.radius_max_m)
+    span, radius = region_size(source, params)
     pos = np.asarray(prim.pos, dtype=np.float64)
     direction = np.asarray(prim.dir, dtype=np.float64)
     direction = direction / np.linalg.norm(direction)

@@ -131,22 +131,28 @@ def prepare_target(tgt: Points, params: RegistrationParams) -> FineTarget:
     fine_voxel = max(params.fine_voxel_frac * span_t, spacing)
     threshold = max(1.5 * fine_voxel, 2.0 * spacing)
     tgt_fine = downsample(tgt, fine_voxel)
-    tgt_full = with_normals(to_cloud(tgt), SURFACE_NORMAL_SPACINGS * spacing, max_nn=SURFACE_NORMAL_NN)
-    normals = np.asarray(tgt_full.normals, dtype=np.float64)
+    normals = surface_normals(tgt, spacing)
     mid_voxel = max(span_t / MID_VOXEL_DIVISOR, spacing)
     mid = downsample(tgt, mid_voxel)
     return FineTarget(tgt, normals, tgt_fine, cloud_points(tgt_fine), mid, fine_voxel, mid_voxel, threshold, spacing)
 
 
-def source_normals(src: Points) -> Points:
-    """Unit surface normals of the source points (the fine stage's neighbourhood), (n, 3)."""
-    src_cloud = with_normals(to_cloud(src), SURFACE_NORMAL_SPACINGS * median_spacing(src), max_nn=SURFACE_NORMAL_NN)
-    out: Points = np.asarray(src_cloud.normals, dtype=np.float64)
+def surface_normals(points: Points, spacing_m: float) -> Points:
+    """(n, 3) unit surface normals (unsigned) of model points whose median spacing is ``spacing_m``: the fine
+    stage's neighbourhood (``SURFACE_NORMAL_NN`` points within ``SURFACE_NORMAL_SPACINGS`` spacings)."""
+    cloud = with_normals(to_cloud(points), SURFACE_NORMAL_SPACINGS * spacing_m, max_nn=SURFACE_NORMAL_NN)
+    out: Points = np.asarray(cloud.normals, dtype=np.float64)
     return out
 
 
 def both_ways_icp(
-    src: Points, tgt_mid: O3dCloud, start: Similarity, voxel: float, threshold: float
+    src: Points,
+    tgt_mid: O3dCloud,
+    start: Similarity,
+    voxel: float,
+    threshold: float,
+    *,
+    forward: tuple[Similarity, float] | None = None,
 ) -> tuple[Similarity, float]:
     """Similarity ICP of the source (``src`` metres, voxel-downsampled to ``voxel`` in target metres) onto the
     target and of the target onto the source (inverted), from ``start``; the one with the better two-way score
@@ -156,15 +162,21 @@ def both_ways_icp(
     missed pull towards its edges); the scan's own points all have a counterpart on a whole model, so fitting
     the scan onto the model keeps the scale. A partial source is the mirror case, hence both. When the scale
     moves by more than 5 %, the source is downsampled again at the new scale and fitted once more: voxel
-    centroids at a coarser spacing sit further inside a box's edges and shrink it (1.6 % on a cabinet)."""
+    centroids at a coarser spacing sit further inside a box's edges and shrink it (1.6 % on a cabinet).
+    ``forward``: the first round's model-onto-target fit from ``start`` and its score, when already computed."""
     best, best_score = start, -1.0
-    for _ in range(2):
+    for round_ in range(2):
         begin = best
         src_mid = downsample(src, voxel / begin.scale)
-        fits = [similarity_icp(src_mid, tgt_mid, begin, (4.0 * voxel, threshold), 30)]
+        if round_ == 0 and forward is not None:
+            scored = [(forward[1], forward[0])]
+        else:
+            ahead = similarity_icp(src_mid, tgt_mid, begin, (4.0 * voxel, threshold), 30)
+            scored = [(two_way_score(src_mid, tgt_mid, ahead, threshold), ahead)]
         distances = (4.0 * voxel / begin.scale, threshold / begin.scale)
-        fits.append(similarity_icp(tgt_mid, src_mid, begin.inverse(), distances, 30).inverse())
-        best_score, best = max(((two_way_score(src_mid, tgt_mid, f, threshold), f) for f in fits), key=lambda r: r[0])
+        back = similarity_icp(tgt_mid, src_mid, begin.inverse(), distances, 30).inverse()
+        scored.append((two_way_score(src_mid, tgt_mid, back, threshold), back))
+        best_score, best = max(scored, key=lambda r: r[0])
         if abs(math.log(best.scale / begin.scale)) <= RESAMPLE_RESCALE:
             break
     return best, best_score
@@ -180,8 +192,9 @@ def whole_model_fits(
     take the body's scale, 28 % off the cap's, from which the cap's refinement does not come back."""
     mid = downsample(src, voxel / start.scale)
     forward = similarity_icp(mid, tgt_mid, start, (4.0 * voxel, threshold), 30)
-    fits = [(forward, two_way_score(mid, tgt_mid, forward, threshold))]
-    both, both_score = both_ways_icp(src, tgt_mid, start, voxel, threshold)
+    forward_score = two_way_score(mid, tgt_mid, forward, threshold)
+    fits = [(forward, forward_score)]
+    both, both_score = both_ways_icp(src, tgt_mid, start, voxel, threshold, forward=(forward, forward_score))
     if abs(math.log(both.scale / forward.scale)) > RESAMPLE_RESCALE:
         fits.append((both, both_score))
     return fits
@@ -219,7 +232,7 @@ def register_models(
     # raw points (not voxel centroids, which sit inside curved surfaces and bias the scale)
     pick = rng.permutation(used.shape[0])[:PLANE_ICP_POINTS]
     raw_sample = used[pick]
-    raw_normals = source_normals(src)[used_idx[pick]]
+    raw_normals = surface_normals(src, median_spacing(src))[used_idx[pick]]
     # the functional part leads the final refinement; the rest of the model keeps it from tilting where the
     # part alone is ambiguous (a cap seen from one side), with ``context_weight`` of the part's total weight
     refine_points, refine_weights = raw_sample, None
@@ -229,6 +242,8 @@ def register_models(
         refine_weights = np.concatenate(
             [np.ones(len(raw_sample)), np.full(len(context), params.context_weight * len(raw_sample) / len(context))]
         )
+    foc = check_points(focus, "focus") if crop_radius is not None and focus is not None else None
+    grip_pts = check_points(grip, "grip") if grip is not None and len(grip) > 0 else None
     alignments: list[Alignment] = []
     whole = [
         (name, fit)
@@ -238,9 +253,7 @@ def register_models(
     for name, (whole_fit, model_score) in whole:
         fitted = whole_fit
         score = model_score
-        used_fine = downsample(src, fine.fine_voxel / fitted.scale)
-        if crop_radius is not None and focus is not None:
-            used_fine = downsample(used, fine.fine_voxel / fitted.scale)
+        used_fine = downsample(src if foc is None else used, fine.fine_voxel / fitted.scale)
         fitted = refine_planar(
             refine_points,
             tgt,
@@ -250,8 +263,7 @@ def register_models(
             max_rescale=params.max_crop_rescale,
             weights=refine_weights,
         )
-        if crop_radius is not None and focus is not None:
-            foc = check_points(focus, "focus")
+        if foc is not None and crop_radius is not None:
             score = functional_score(
                 score,
                 fitted,
@@ -262,10 +274,8 @@ def register_models(
                 crop_radius=crop_radius,
                 threshold=threshold,
             )
-        if grip is not None and len(grip) > 0:
-            score *= grip_score(
-                src, fine.fine_points, check_points(grip, "grip"), fitted, params=params, threshold=threshold
-            )
+        if grip_pts is not None:
+            score *= grip_score(src, fine.fine_points, grip_pts, fitted, params=params, threshold=threshold)
         fit, rmse = fitness(used_fine, fine.fine, fitted, threshold)
         plane_rmse, agreement = plane_residuals(
             raw_sample, raw_normals, tgt, fine.normals, fitted, max_distance_m=threshold

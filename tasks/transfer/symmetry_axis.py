@@ -18,6 +18,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from tasks.arrays import FloatArray, Points, Vector3
+from tasks.transfer.local_refine import axis_region
 
 MIN_POINTS = 60
 """A symmetry fit needs at least this many points in the region."""
@@ -56,14 +57,12 @@ def fit_symmetry_axis(
 ) -> SymmetryFit | None:
     """The symmetry axis (parallel to unit ``direction``) of the points within ``radius_m`` of ``pos`` and of the
     line through it; None when too few points. ``loss_scale_m``: the soft-L1 scale (about the surface noise)."""
-    rel = points - pos
-    along = rel @ direction
-    lateral2 = (rel**2).sum(axis=1) - along**2
-    sel = (lateral2 <= radius_m**2) & (np.abs(along) <= radius_m)
+    sel = axis_region(points, pos, direction, radius_m)
     if int(sel.sum()) < MIN_POINTS:
         return None
+    rel = points[sel] - pos
     u, v = _basis(direction)
-    x, y, h = rel[sel] @ u, rel[sel] @ v, along[sel]
+    x, y, h = rel @ u, rel @ v, rel @ direction
     edges = np.linspace(-radius_m, radius_m, SLICES + 1)
     slice_of = np.clip(np.searchsorted(edges, h, side="right") - 1, 0, SLICES - 1)
     counts = np.bincount(slice_of, minlength=SLICES)
