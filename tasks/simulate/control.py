@@ -30,6 +30,8 @@ POSTURE_GAIN = 0.1
 """Fraction of the way to the preferred posture (the base placement's verified joint path) per control tick."""
 ANGULAR_WEIGHT_M = 0.2
 """Radians count as this many metres when a rotation and a translation are traded off (palm-sized lever)."""
+_TWIST_WEIGHTS = np.array([1.0, 1.0, 1.0, ANGULAR_WEIGHT_M, ANGULAR_WEIGHT_M, ANGULAR_WEIGHT_M])
+_EYE6 = np.eye(6)
 
 
 def measured_joints(robot: rb.Robot) -> FloatArray:
@@ -59,7 +61,7 @@ def palm_jacobian(robot: rb.Robot, joints: FloatArray) -> FloatArray:
         physicsClientId=robot.client,
     )
     n = len(rb.ARM_JOINTS)
-    base = matrix_from_quat(robot.base_quat)  # pybullet gives a fixed-base Jacobian in the base frame
+    base = robot.base_rotation  # pybullet gives a fixed-base Jacobian in the base frame
     return np.vstack([base @ np.asarray(lin, dtype=np.float64)[:, :n], base @ np.asarray(ang, dtype=np.float64)[:, :n]])
 
 
@@ -70,10 +72,10 @@ def joint_step(
     damped least-squares sense, dq = J⁺ twist with J⁺ = J^T (J J^T + λ² I)^-1 (rotations weighted by
     ``ANGULAR_WEIGHT_M``), plus ``posture_pull`` (7,) radians projected on the null space (I - J⁺ J): a
     redundant arm drifts towards a preferred posture without moving the palm."""
-    w = np.array([1.0, 1.0, 1.0, ANGULAR_WEIGHT_M, ANGULAR_WEIGHT_M, ANGULAR_WEIGHT_M])
+    w = _TWIST_WEIGHTS
     jw = jacobian * w[:, None]
     tw = np.asarray(twist, dtype=np.float64) * w
-    pinv = jw.T @ np.linalg.inv(jw @ jw.T + (damping**2) * np.eye(6))
+    pinv = np.linalg.solve(jw @ jw.T + (damping**2) * _EYE6, jw).T  # (J J^T + λ² I) is symmetric
     out: FloatArray = pinv @ tw
     if posture_pull is not None:
         out = out + (np.eye(jacobian.shape[1]) - pinv @ jw) @ np.asarray(posture_pull, dtype=np.float64)

@@ -158,7 +158,16 @@ def posture_path(keys: Sequence[KeyPose], q_path: FloatArray, index: int) -> tup
 def posture_at(path: tuple[FloatArray, FloatArray], progress: float) -> FloatArray:
     """(7,) arm angles interpolated along ``posture_path`` at ``progress`` (clamped to its ends)."""
     xs, qs = path
-    return np.array([np.interp(progress, xs, qs[:, j]) for j in range(qs.shape[1])])
+    if progress <= xs[0]:
+        first: FloatArray = qs[0].copy()
+        return first
+    if progress >= xs[-1]:
+        last: FloatArray = qs[-1].copy()
+        return last
+    i = int(np.searchsorted(xs, progress, side="right")) - 1  # xs[i] <= progress < xs[i + 1]
+    t = (progress - xs[i]) / (xs[i + 1] - xs[i])
+    out: FloatArray = qs[i] + t * (qs[i + 1] - qs[i])
+    return out
 
 
 def _execute_primitive(

@@ -13,7 +13,7 @@ import os
 import re
 import tempfile
 from dataclasses import dataclass
-from functools import cache
+from functools import cache, cached_property
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +21,7 @@ import numpy.typing as npt
 
 from tasks.arrays import FloatArray
 from tasks.grasp import barrett
+from tasks.simulate.waypoints import matrix_from_quat
 
 ARM_JOINTS: tuple[int, ...] = (0, 1, 2, 3, 4, 5, 6)
 """pybullet joint indices of the iiwa's seven revolute joints."""
@@ -129,6 +130,11 @@ class Robot:
     body: int
     base_position: FloatArray
     base_quat: FloatArray
+
+    @cached_property
+    def base_rotation(self) -> FloatArray:
+        """(3, 3) rotation of the base frame in the world."""
+        return matrix_from_quat(self.base_quat)
 
 
 def load_robot(

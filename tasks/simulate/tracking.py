@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from functools import cached_property
 
 import numpy as np
 
@@ -42,6 +43,11 @@ class AxisTracker:
     p0: FloatArray
     q0: FloatArray
 
+    @cached_property
+    def start_rotation_t(self) -> FloatArray:
+        """(3, 3) transpose of the palm's world rotation when the primitive began."""
+        return matrix_from_quat(self.q0).T
+
     def corrected(self, p: FloatArray, q: FloatArray) -> Primitive:
         """The primitive with its axis blended towards the one the palm's motion from (p0, q0) to (``p``, ``q``)
         shows (unchanged while that motion is too short or implausible)."""
@@ -53,7 +59,7 @@ class AxisTracker:
         assert self.prim.pos is not None
         d = np.asarray(self.prim.dir, dtype=np.float64)
         d /= np.linalg.norm(d)
-        rot = matrix_from_quat(q) @ matrix_from_quat(self.q0).T
+        rot = matrix_from_quat(q) @ self.start_rotation_t
         rv = rotation_vector(rot)
         angle = float(np.linalg.norm(rv))
         if angle < BLEND_START_RAD:
@@ -62,9 +68,11 @@ class AxisTracker:
         if math.acos(min(1.0, float(k @ d))) > MAX_TILT_RAD:
             return self.prim
         pos = np.asarray(self.prim.pos, dtype=np.float64)
-        a = np.eye(3) - rot
-        offset, *_ = np.linalg.lstsq(a, p - rot @ self.p0 - a @ pos, rcond=1e-6)
-        offset -= (offset @ k) * k
+        # the palm turned rigidly about (c, k): p - R p0 = (I - R) c; with c = pos + offset, offset ⟂ k, solve
+        # (I - R) offset = b in the plane ⟂ k, where I - R acts as 1 - e^{iθ}, whose inverse is ½ + ½ cot(θ/2) k×
+        b = p - rot @ self.p0 - (pos - rot @ pos)
+        b -= (b @ k) * k
+        offset = 0.5 * b + 0.5 / math.tan(0.5 * angle) * np.cross(k, b)
         if float(np.linalg.norm(offset)) > MAX_SHIFT_M:
             return self.prim
         w = min(1.0, (angle - BLEND_START_RAD) / (BLEND_FULL_RAD - BLEND_START_RAD))

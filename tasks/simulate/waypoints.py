@@ -46,7 +46,9 @@ def matrix_from_quat(quat_xyzw: npt.ArrayLike) -> FloatArray:
     if q.shape != (4,):
         msg = f"quat_xyzw: expected shape (4,), got {q.shape}"
         raise ValueError(msg)
-    x, y, z, w = q / np.linalg.norm(q)
+    x, y, z, w = q.tolist()  # plain floats: this runs every control tick
+    norm = math.sqrt(x * x + y * y + z * z + w * w)
+    x, y, z, w = x / norm, y / norm, z / norm, w / norm
     return np.array(
         [
             [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
