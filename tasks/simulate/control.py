@@ -47,14 +47,11 @@ def palm_jacobian(robot: rb.Robot, joints: FloatArray) -> FloatArray:
     arm's seven joints, at the (15,) movable joint positions ``joints``."""
     import pybullet as pb  # noqa: PLC0415
 
-    state = pb.getLinkState(robot.body, rb.PALM_LINK, physicsClientId=robot.client)
-    # pybullet's local position is about the link's centre of mass: the link frame's origin seen from there.
-    origin_in_com, _ = pb.invertTransform(state[2], state[3])
     zeros = [0.0] * len(joints)
     lin, ang = pb.calculateJacobian(
         robot.body,
         rb.PALM_LINK,
-        list(origin_in_com),
+        robot.palm_origin_in_com,
         [float(v) for v in joints],
         zeros,
         zeros,

@@ -136,6 +136,16 @@ class Robot:
         """(3, 3) rotation of the base frame in the world."""
         return matrix_from_quat(self.base_quat)
 
+    @cached_property
+    def palm_origin_in_com(self) -> list[float]:
+        """The palm frame's origin in the palm link's centre-of-mass frame, metres (pybullet's Jacobian and
+        ``getLinkState`` take link points about the centre of mass; the offset is fixed by the URDF)."""
+        import pybullet as pb  # noqa: PLC0415
+
+        state = pb.getLinkState(self.body, PALM_LINK, physicsClientId=self.client)
+        origin, _ = pb.invertTransform(state[2], state[3])
+        return [float(v) for v in origin]
+
 
 def load_robot(
     client: int, base_position: npt.ArrayLike, base_quat_xyzw: npt.ArrayLike, *, visuals: bool = True
