@@ -2,8 +2,9 @@
 
 The demonstrator's wrist tracker pose (world frame, metres, quaternion [x, y, z, w]) is turned into a seed palm
 pose through the sensor-to-palm offset; the planner (``planner.py``) searches Barrett eigengrasp amplitudes and
-a palm pose near it and returns the force-closure grasp closest to the demonstration (of the five closest, the
-first that holds the part under a quick shake test). ``Grasp.wrist_*`` is the pose of the hand base (palm) frame
+a palm pose near it and returns a force-closure grasp near the demonstration: of the closest, the first that
+holds the part under the planner's hold check on its own object model (``hold_check``), else the one that lasted
+longest. ``Grasp.wrist_*`` is the pose of the hand base (palm) frame
 of ``barrett.py`` in the world, +z the approach direction; ``Grasp.eigengrasps`` (a1, a2) is the posture the hand
 closes towards: execute by opening the hand at spread 1.13 + a1 (fingers ``barrett.OPEN_FINGER_RAD``), moving the
 palm along +z to the wrist pose and closing the fingers towards a2 (``barrett.CLOSE_AMPLITUDE``: fully) until they
@@ -29,7 +30,7 @@ from tasks.errors import GraspError
 from tasks.grasp import barrett
 from tasks.grasp.object_model import ObjectModel, build_object_model, check_object_points, convex_parts, crop_points
 from tasks.grasp.planner import GraspCandidate, PlannerParams, rank_tier, search
-from tasks.grasp.shake import QUICK_SHAKE, shake_test
+from tasks.grasp.shake import QUICK_SHAKE, Motion, ShakeParams, shake_test
 from tasks.recording.load import PoseTrack
 
 HAND = "barrett"
@@ -45,7 +46,30 @@ REDRAWS = 4
 """Then rounds of the demonstrated approach's poses alone (no annealing, about 0.2 s each), each on pieces drawn
 anew: which of them close into force closure on a scan depends on how its convex pieces fall."""
 SHAKE_BUDGET = 6
-"""Shake tests one plan may run on near force closures (0.05-0.6 s each; ``FALLBACK_CHECKS`` more after them)."""
+"""Hold checks one plan may run on near force closures (``FALLBACK_CHECKS`` more after them) ..."""
+CHECK_BUDGET_S = 13.0
+"""... and simulated seconds of shaking they may take in all (a check stops when the part slips; one that holds
+takes ``CHECK_LENGTH_S``, about 0.2 s CPU per simulated second on a scan's convex pieces). A further round is
+searched, and a check started, only while a whole check still fits in what is left."""
+CHECK_TILT_RAD = math.radians(30.0)
+CHECK_PEAK_MS2 = 6.5
+CHECK_FREQUENCY_HZ = 3.0
+CHECK_TURN_RAD = math.radians(7.5)
+CHECK_TURN_HZ = 2.0
+CHECK_CYCLES = 1.0
+"""``hold_check``'s program: gravity tilt (rad), translation peak acceleration (m/s²) and frequency (Hz), palm
+turn amplitude (rad) and frequency (Hz), cycles of each motion (whole cycles: A (1 - cos ωt) ends where it
+began)."""
+CHECK_LENGTH_S = 3 * (0.5 + CHECK_CYCLES * (3 / CHECK_FREQUENCY_HZ + 1 / CHECK_TURN_HZ))
+"""Simulated length of ``hold_check`` (s): three gravity phases, each 0.5 s settling then the four motions."""
+CHECK_SHIFT_M = 0.005
+CHECK_TURN_TOL_RAD = math.radians(5.0)
+"""``hold_check`` fails a grasp whose part moved 5 mm or turned 5° in the hand: half the slip a longer, harsher
+shake allows (10 mm, 10°), since slip that starts in a short check goes on in a longer one."""
+CHECK_MAX_ANGLE_RAD = math.radians(15.5)
+"""Only near force closures turned at most 15° from the demonstrated palm (the demonstrated approach's rolls,
+``planner.LINE_POSES``) are checked and chosen for holding: a grasp held under the check at 24° from the
+demonstrated palm closed on nothing in execution (a sliding door's handle, ``bench/simulate.py``)."""
 SEED_WINDOW_S = 1.0
 """The seed is the stillest wrist pose within this long before the first primitive's start (``stillest_time_ns``)."""
 
@@ -166,19 +190,65 @@ def grasp_from_candidate(candidate: GraspCandidate) -> Grasp:
 Tried = tuple[GraspCandidate, ObjectModel]
 
 
+def hold_check(palm_quat_xyzw: FloatArray) -> ShakeParams:
+    """The planner's hold check for a grasp whose palm has orientation ``palm_quat_xyzw`` (world [x, y, z, w]):
+    gravity world down, then tilted 30° towards either end of the palm's x axis (the axis of a bar the fingers
+    close round: a lever slides along it) laid horizontal, or of its y axis when x is near vertical; in each
+    phase translations along world x, y and z with 6.5 m/s² peaks at 3 Hz and a turn of the palm of 7.5° about
+    the world diagonal at 2 Hz, one cycle each (6 s in all), within 5 mm and 5°. Run on the planner's own
+    object model. The former check (world gravity only, 4.9 m/s² peaks, 10 mm and 10°) passed fingertip grasps
+    that a longer, harsher shake drops."""
+    rot = Rotation.from_quat(palm_quat_xyzw).as_matrix()
+    down = np.array([0.0, 0.0, -1.0])
+    side = rot[:, 0] - float(rot[:, 0] @ down) * down
+    if float(np.linalg.norm(side)) < 0.3:
+        side = rot[:, 1] - float(rot[:, 1] @ down) * down
+    side = side / float(np.linalg.norm(side))
+    gravity = [(0.0, 0.0, -9.81)]
+    for sign in (1.0, -1.0):
+        g = 9.81 * (math.cos(CHECK_TILT_RAD) * down + sign * math.sin(CHECK_TILT_RAD) * side)
+        gravity.append((float(g[0]), float(g[1]), float(g[2])))
+    amplitude = CHECK_PEAK_MS2 / (2.0 * math.pi * CHECK_FREQUENCY_HZ) ** 2
+    axes = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+    motions = [Motion(a, amplitude, CHECK_FREQUENCY_HZ, CHECK_CYCLES) for a in axes]
+    diagonal = 1.0 / math.sqrt(3.0)
+    motions.append(Motion((diagonal, diagonal, diagonal), CHECK_TURN_RAD, CHECK_TURN_HZ, CHECK_CYCLES, turn=True))
+    return ShakeParams(
+        max_shift_m=CHECK_SHIFT_M, max_turn_rad=CHECK_TURN_TOL_RAD, gravity=tuple(gravity), motions=tuple(motions)
+    )
+
+
 class _ShakeBudget:
-    """Quick shake tests left for one plan (``SHAKE_BUDGET``)."""
+    """Hold checks left for one plan (a count and simulated seconds); the checked grasp that lasted longest."""
 
-    def __init__(self, count: int) -> None:
-        """Allow ``count`` tests."""
+    def __init__(self, count: int, seconds: float = CHECK_BUDGET_S) -> None:
+        """Allow ``count`` checks and ``seconds`` of simulated shaking."""
         self.left = count
+        self.seconds = seconds
+        self.longest: GraspCandidate | None = None
+        self.longest_s = -1.0
 
-    def first_that_holds(self, candidates: list[Tried], checks: int) -> GraspCandidate | None:
-        """The first of up to ``checks`` (candidate, model) pairs whose grasp holds under ``QUICK_SHAKE``."""
-        for cand, model in candidates[: min(checks, self.left)]:
+    def spent(self) -> bool:
+        """Whether no further check may start: none left, or a check that holds (``CHECK_LENGTH_S``) would
+        overrun the simulated seconds left."""
+        return self.left <= 0 or self.seconds < CHECK_LENGTH_S
+
+    def first_that_holds(
+        self, candidates: list[Tried], checks: int, program: Callable[[FloatArray], ShakeParams] = hold_check
+    ) -> GraspCandidate | None:
+        """The first of up to ``checks`` (candidate, model) pairs whose grasp holds under ``program`` (of the
+        palm's orientation)."""
+        for cand, model in candidates[:checks]:
+            if self.spent():
+                break
             self.left -= 1
-            if shake_test(model, grasp_from_candidate(cand), QUICK_SHAKE).holds:
+            grasp = grasp_from_candidate(cand)
+            result = shake_test(model, grasp, program(np.asarray(grasp.wrist_orientation)))
+            self.seconds -= result.survived_s
+            if result.holds:
                 return cand
+            if result.survived_s > self.longest_s:
+                self.longest, self.longest_s = cand, result.survived_s
         return None
 
 
@@ -202,15 +272,16 @@ def plan_on_model(
     *,
     shake_checks: int = SHAKE_CHECKS,
 ) -> GraspCandidate:
-    """Best candidate on a built model from a palm seed, the first that holds under ``QUICK_SHAKE`` of: the
-    force-closure grasps near the demonstration in order of closeness (up to ``shake_checks`` a round and
-    ``SHAKE_BUDGET`` in all; while none holds, ``ROUNDS`` annealing rounds then ``REDRAWS`` rounds of the
-    demonstrated approach's poses, each after the first on the model's pieces drawn anew, ``redecomposed``),
-    then up to ``FALLBACK_CHECKS`` of the other grasps near it. When none holds: the first near force closure.
-    Without any near force closure (nothing within reach of the demonstrated palm), up to ``FALLBACK_CHECKS``
-    of: the force closures reached further along the demonstrated approach, the other near grasps, the other
-    reached ones; when none holds, the first reached force closure, else the closest grasp near the
-    demonstration (force_closure False: a distant grasp would not be the demonstrated one), else the closest."""
+    """Best candidate on a built model from a palm seed: the first that holds under ``hold_check`` of the
+    force-closure grasps near the demonstration in order of closeness (up to ``shake_checks`` a round,
+    ``SHAKE_BUDGET`` and ``CHECK_BUDGET_S`` in all; while none holds and a whole check still fits,
+    ``ROUNDS`` annealing rounds then ``REDRAWS`` rounds of the demonstrated approach's poses, each after the
+    first on the model's pieces drawn anew, ``redecomposed``). When none holds: the checked one that lasted
+    longest, else the first near force closure. Without any near force closure (nothing within reach of the
+    demonstrated palm), up to ``FALLBACK_CHECKS`` under ``QUICK_SHAKE`` of: the force closures reached further
+    along the demonstrated approach, the other near grasps, the other reached ones; when none holds, the first
+    reached force closure, else the closest grasp near the demonstration (force_closure False: a distant grasp
+    would not be the demonstrated one), else the closest."""
     pos, quat = _check_seed(seed_position, seed_quat_xyzw)
     seed_rot = Rotation.from_quat(quat).as_matrix()
     budget = _ShakeBudget(SHAKE_BUDGET)
@@ -226,9 +297,11 @@ def plan_on_model(
         tried += found
         new = [t for t in found if t[0].near and rank_tier(t[0].quality) == 0]
         closure += new
-        held = budget.first_that_holds(new, shake_checks)
+        held = budget.first_that_holds([t for t in new if t[0].angle_rad <= CHECK_MAX_ANGLE_RAD], shake_checks)
         if held is not None:
             return held
+        if closure and budget.spent():
+            break
     if not tried:
         msg = "no collision-free grasp found near the seed pose"
         raise GraspError(msg)
@@ -236,13 +309,13 @@ def plan_on_model(
     def ordered(keep: Callable[[GraspCandidate], bool]) -> list[Tried]:
         return sorted((t for t in tried if keep(t[0])), key=lambda t: t[0].closeness)
 
-    budget = _ShakeBudget(FALLBACK_CHECKS)
-    others = ordered(lambda c: c.near and rank_tier(c.quality) != 0)
     if closure:
-        return budget.first_that_holds(others, FALLBACK_CHECKS) or closure[0][0]
+        return budget.longest or closure[0][0]
+    budget = _ShakeBudget(FALLBACK_CHECKS, math.inf)  # quick checks, as many as FALLBACK_CHECKS
+    others = ordered(lambda c: c.near and rank_tier(c.quality) != 0)
     reached = ordered(lambda c: c.reach and not c.near and rank_tier(c.quality) == 0)
     further = ordered(lambda c: c.reach and not c.near and rank_tier(c.quality) != 0)
-    held = budget.first_that_holds(reached + others + further, FALLBACK_CHECKS)
+    held = budget.first_that_holds(reached + others + further, FALLBACK_CHECKS, lambda _: QUICK_SHAKE)
     if held is not None:
         return held
     if reached:
