@@ -9,7 +9,8 @@ SUCCESS_FRACTION = 0.90
 """A driven joint must reach at least 90% of its demonstrated extent (the usual benchmark criterion)."""
 STILL_LINEAR_M_S = 0.1
 STILL_ANGULAR_RAD_S = 1.0
-"""... and be still at the end: under 0.1 m/s (prismatic) or 1 rad/s (revolute)."""
+"""... and be still at the end: under 0.1 m/s (prismatic) or 1 rad/s (revolute), its mean speed over the last
+0.1 s of the final hold."""
 CONTACT_KEPT_FRACTION = 0.95
 """The hand kept contact if it touched the object at >= 95% of the control checks after the grasp and at the end."""
 
@@ -22,7 +23,8 @@ class PrimitiveResult:
     demonstrated direction (for a joint's first primitive from the scene's start, so motion the grasp already
     caused counts); ``joint`` it drove; ``contact_fraction`` of control checks with hand-object contact;
     ``sim_time_s`` simulated seconds; ``stopped`` why execution moved on; ``end_speed`` joint speed at the end
-    (rad/s or m/s); ``success`` = achieved >= 90% target and still at the end."""
+    (rad/s or m/s: its displacement over the final hold's last 0.1 s); ``success`` = achieved >= 90% target and
+    still at the end."""
 
     index: int
     kind: Literal["rotation", "translation"]

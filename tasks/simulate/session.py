@@ -168,6 +168,14 @@ class Session:
             self.trace_q.append(tuple(self.joint_value(j)[0] for j in self.trace_joints))
         return touching
 
+    def mean_speeds(self, joints: Sequence[int], steps: int) -> dict[int, float]:
+        """Step the physics ``steps`` times and return each scene joint's mean speed over them (its displacement
+        over the time, rad/s or m/s): what the joint did, where pybullet's joint velocity under a grasp
+        constraint is the solver's velocity before its position correction."""
+        before = {j: self.joint_value(j)[0] for j in joints}
+        self.step(steps)
+        return {j: abs(self.joint_value(j)[0] - before[j]) / (steps * TIME_STEP_S) for j in joints}
+
     def joint_value(self, index: int) -> tuple[float, float]:
         state = self.pb.getJointState(self.scene, index, physicsClientId=self.sim)
         return float(state[0]), float(state[1])
