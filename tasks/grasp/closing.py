@@ -28,11 +28,13 @@ BISECT_ITERS = 5
 @dataclass(frozen=True)
 class Contacts:
     """Contacts of a closed hand: ``positions`` (m, 3) on the object, world metres; ``normals_in`` (m, 3)
-    unit, into the object; ``links`` (m,) hand link index (-1 = palm)."""
+    unit, into the object; ``links`` (m,) hand link index (-1 = palm); ``pieces`` (m,) the object's convex piece
+    touched (its index in ``ObjectModel.parts``; 0 for a primitive)."""
 
     positions: Points
     normals_in: Points
     links: npt.NDArray[np.int64]
+    pieces: npt.NDArray[np.int64]
 
 
 def set_pose(client_id: int, hand: int, position: npt.ArrayLike, quat_xyzw: npt.ArrayLike) -> None:
@@ -173,6 +175,7 @@ def contacts_of(client_id: int, hand: int, obj: int, within: float = 0.002, merg
     positions: list[FloatArray] = []
     normals: list[FloatArray] = []
     links: list[int] = []
+    pieces: list[int] = []
     for p in pts:
         pos = np.array(p[6], dtype=np.float64)
         normal_to_hand = np.array(p[7], dtype=np.float64)  # normal on B (object) pointing towards A (hand)
@@ -186,9 +189,13 @@ def contacts_of(client_id: int, hand: int, obj: int, within: float = 0.002, merg
         positions.append(pos)
         normals.append(-normal_to_hand / norm)
         links.append(int(p[3]))
+        pieces.append(int(p[4]) + 1)  # the body's base is piece 0, link k is piece k + 1
     if not positions:
-        return Contacts(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, dtype=np.int64))
-    return Contacts(np.array(positions), np.array(normals), np.array(links, dtype=np.int64))
+        empty = np.zeros(0, dtype=np.int64)
+        return Contacts(np.zeros((0, 3)), np.zeros((0, 3)), empty, empty.copy())
+    return Contacts(
+        np.array(positions), np.array(normals), np.array(links, dtype=np.int64), np.array(pieces, dtype=np.int64)
+    )
 
 
 def open_free(  # noqa: PLR0917 -- pybullet ids, then the opening

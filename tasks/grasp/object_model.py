@@ -61,8 +61,10 @@ class PrimitiveShape:
 @dataclass(frozen=True, eq=False)
 class ObjectModel:
     """Object for planning: ``points`` (n, 3) m world, outward unit ``normals`` (n, 3), ``center`` (3,) m
-    (centroid), ``radius`` m (largest distance of a point from the centre), convex ``parts`` (each (k, 3) m
-    world) or a ``primitive``."""
+    (centroid of the part), ``radius`` m (largest distance of a part point from the centre), convex ``parts``
+    (each (k, 3) m world) or a ``primitive``. ``mount`` (n,), when known (``labelled_model``), marks the points
+    of the face the part stands on (a handle's plate, a lever's door leaf): an obstacle to the closing fingers,
+    not part of the free body in the shake test; its pieces are the last ``mount_parts`` of ``parts``."""
 
     points: Points
     normals: Points
@@ -70,6 +72,8 @@ class ObjectModel:
     radius: float
     parts: tuple[Points, ...] = ()
     primitive: PrimitiveShape | None = None
+    mount: BoolArray | None = None
+    mount_parts: int = 0
     tree: cKDTree = field(init=False, repr=False)
     lower: Vector3 = field(init=False, repr=False)
     upper: Vector3 = field(init=False, repr=False)
@@ -79,6 +83,22 @@ class ObjectModel:
         object.__setattr__(self, "tree", cKDTree(self.points))
         object.__setattr__(self, "lower", self.points.min(axis=0))
         object.__setattr__(self, "upper", self.points.max(axis=0))
+
+    def is_mount_piece(self, piece: npt.NDArray[np.int64]) -> BoolArray:
+        """(m,) whether each convex piece index (into ``parts``) belongs to the mount."""
+        index = np.asarray(piece)
+        if not self.mount_parts:
+            return np.zeros(len(index), dtype=bool)
+        out: BoolArray = index >= len(self.parts) - self.mount_parts
+        return out
+
+    def without_mount(self) -> ObjectModel:
+        """The part alone (its points, normals and pieces), or this model when it has no mount."""
+        if self.mount is None or not self.mount_parts:
+            return self
+        keep = ~self.mount
+        parts = self.parts[: len(self.parts) - self.mount_parts]
+        return ObjectModel(self.points[keep], self.normals[keep], self.center, self.radius, parts)
 
 
 def check_object_points(points: object, name: str = "object_points") -> Points:
@@ -259,6 +279,24 @@ def build_object_model(
     radius = float(np.linalg.norm(pts - center, axis=1).max())
     parts = () if primitive is not None else convex_parts(pts, nrm, rng)
     return ObjectModel(pts, nrm, center, radius, parts, primitive)
+
+
+def labelled_model(
+    part: Points, mount: Points, rng: np.random.Generator, *, viewpoint: Vector3, voxel_m: float = 0.004
+) -> ObjectModel:
+    """A model whose mount is known (a benchmark's truth): ``part`` and ``mount`` (n, 3) world m, each
+    downsampled to ``voxel_m``, normals of the whole oriented away from ``viewpoint``, each cut into its own
+    convex pieces (the part's first); centre and radius are the part's."""
+    grip = voxel_downsample(check_object_points(part, "part points"), voxel_m)
+    face = voxel_downsample(check_object_points(mount, "mount points"), voxel_m)
+    pts = np.concatenate([grip, face])
+    nrm = estimate_normals(pts, viewpoint=viewpoint)
+    on_mount = np.arange(len(pts)) >= len(grip)
+    center = grip.mean(axis=0)
+    radius = float(np.linalg.norm(grip - center, axis=1).max())
+    pieces = convex_parts(grip, nrm[~on_mount], rng)
+    mount_pieces = convex_parts(face, nrm[on_mount], rng)
+    return ObjectModel(pts, nrm, center, radius, pieces + mount_pieces, None, on_mount, len(mount_pieces))
 
 
 def crop_points(points: Points, center: Vector3, radius_m: float) -> Points:

@@ -3,11 +3,15 @@
 The part (the planner's object model, optionally cropped around the contacts) is a dynamic body of 0.3 kg made
 of its convex pieces or primitive. The hand is placed at the grasp's palm pose open at the grasp's spread
 (``closing.open_free``), the fingers are closed kinematically to contact, then position-controlled 0.3 rad
-past contact with at most ``squeeze_torque_nm`` (1.5 N m) so they press. The palm is held by a fixed
-constraint that follows a trajectory: settle without gravity, switch gravity on (world -z), then shake
-sinusoidally along world x, y, z and two diagonals (A (1 - cos ωt), A = 20 mm, 2.5 Hz: 4.9 m/s² peak), two
-cycles each. The grasp holds when the part's pose relative to the palm moves less than ``max_shift_m`` (10 mm)
-and ``max_turn_rad`` (10°) from where it settled; the test stops as soon as either is exceeded.
+past contact with at most ``squeeze_torque_nm`` (1.5 N m) so they press. A model with a known mount (the face
+a handle or a lever stands on, ``object_model.labelled_model``) is closed on as a whole, held static; then the
+part alone becomes the free body, and a finger the mount stopped holds its place instead of squeezing on: the
+test asks whether the fingers that reach the part hold it, not whether they pinch what it is fixed to. The
+palm is held by a fixed constraint that follows a trajectory: settle without gravity, switch gravity on
+(world -z), then shake sinusoidally along world x, y, z and two diagonals (A (1 - cos ωt), A = 20 mm, 2.5 Hz:
+4.9 m/s² peak), two cycles each. The grasp holds when the part's pose relative to the palm moves less than
+``max_shift_m`` (10 mm) and ``max_turn_rad`` (10°) from where it settled; the test stops as soon as either is
+exceeded.
 
 Other programs (``ShakeParams.gravity`` and ``ShakeParams.motions``): gravity in several directions one phase
 after another (each phase settles 0.5 s, then runs the motions), and motions of any direction, amplitude,
@@ -30,6 +34,8 @@ from tasks.grasp import barrett, closing
 from tasks.grasp.object_model import MIN_POINTS, ObjectModel, convex_parts, load_object
 
 TIME_STEP_S = 1.0 / 240.0
+FINGER_LINKS = ((1, 2), (4, 5), (7, 8))
+"""The hand's proximal and distal link of each finger (``barrett``)."""
 SHAKE_DIRECTIONS: FloatArray = np.array(
     [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 1.0, 0.0], [0.0, 1.0, 1.0]]
 )
@@ -131,7 +137,10 @@ def shake_test(model: ObjectModel, grasp: Grasp, params: ShakeParams | None = No
     try:
         pb.setTimeStep(TIME_STEP_S, physicsClientId=client)
         pb.setPhysicsEngineParameter(numSolverIterations=prm.solver_iterations, physicsClientId=client)
-        obj = load_object(client, model, mass_kg=prm.mass_kg, friction=prm.friction)
+        part_only = model.without_mount()  # the free body is the part, not the face it stands on
+        mounted = prm.close and part_only is not model  # close on the part and its mount (static), then swap
+        loaded = model if prm.close else part_only
+        obj = load_object(client, loaded, mass_kg=0.0 if mounted else prm.mass_kg, friction=prm.friction)
         hand = barrett.load_hand(client, grasp.wrist_position, grasp.wrist_orientation)
         for link in range(-1, 9):
             pb.changeDynamics(
@@ -140,19 +149,25 @@ def shake_test(model: ObjectModel, grasp: Grasp, params: ShakeParams | None = No
         pos = np.array(grasp.wrist_position)
         quat = np.array(grasp.wrist_orientation)
         dofs = barrett.dofs_from_eigengrasps(*grasp.eigengrasps)
+        blocked = np.zeros(3, dtype=bool)  # fingers stopped by the mount: they hold still, not squeeze on
         if prm.close:
             opened = closing.open_free(client, hand, obj, float(dofs[0]))
             closed = closing.close_fingers(client, hand, obj, opened)
-            if prm.part_radius_m is not None:
+            free = part_only
+            if mounted or prm.part_radius_m is not None:
                 contacts = closing.contacts_of(client, hand, obj)
-                part = _grasped_part(model, contacts.positions, prm.part_radius_m)
-                if part is not model:
-                    pb.removeBody(obj, physicsClientId=client)
-                    obj = load_object(client, part, mass_kg=prm.mass_kg, friction=prm.friction)
+                on_mount = model.is_mount_piece(contacts.pieces)
+                for finger, links in enumerate(FINGER_LINKS):
+                    blocked[finger] = bool(np.any(on_mount & np.isin(contacts.links, links)))
+                if prm.part_radius_m is not None:
+                    free = _grasped_part(part_only, contacts.positions[~on_mount], prm.part_radius_m)
+            if mounted or free is not part_only:
+                pb.removeBody(obj, physicsClientId=client)
+                obj = load_object(client, free, mass_kg=prm.mass_kg, friction=prm.friction)
         else:
             barrett.apply_dofs(client, hand, dofs)
             closed = np.concatenate([dofs, barrett.coupled_distal(dofs[1:])])
-        squeeze = prm.squeeze_rad if prm.close else 0.0
+        squeeze = np.where(blocked, 0.0, prm.squeeze_rad if prm.close else 0.0)
         target_prox = np.minimum(closed[1:4] + squeeze, barrett.DOF_UPPER[1:])
         target_dist = np.minimum(closed[4:7] + squeeze, barrett.DISTAL_UPPER)
         barrett.drive_dofs(

@@ -151,6 +151,11 @@ def sample_object_model(scene: Scene, n_points: int, rng: np.random.Generator) -
     if not shapes:
         msg = f"scene {scene.name!r}: its model links {scene.model_links} have no collision shapes"
         raise SceneError(msg)
+    return sample_shapes(shapes, n_points, rng)
+
+
+def sample_shapes(shapes: list[WorldShape], n_points: int, rng: np.random.Generator) -> Points:
+    """(n_points, 3) float64 points, metres, world frame, drawn area-weighted from the surfaces of ``shapes``."""
     areas = np.array([s.area for s in shapes])
     counts = rng.multinomial(n_points, areas / areas.sum())
     samplers = {"box": _sample_box, "cylinder": _sample_cylinder, "sphere": _sample_sphere}
