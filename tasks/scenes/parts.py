@@ -12,7 +12,7 @@ from typing import Literal
 
 import numpy as np
 
-from tasks.arrays import FloatArray
+from tasks.rotations import quat_tuple_from_matrix
 from tasks.scenes.scene import Quat, Vec3
 
 COLOURS: dict[str, tuple[float, float, float, float]] = {
@@ -127,23 +127,9 @@ def _fmt(v: tuple[float, ...]) -> str:
     return " ".join(f"{float(x):.6f}" for x in v)
 
 
-def quat_from_matrix(rot: FloatArray) -> Quat:
-    """Quaternion ``[x, y, z, w]`` of a 3x3 rotation matrix."""
-    m = np.asarray(rot, dtype=np.float64)
-    w = math.sqrt(max(0.0, 1.0 + m[0, 0] + m[1, 1] + m[2, 2])) / 2
-    x = math.sqrt(max(0.0, 1.0 + m[0, 0] - m[1, 1] - m[2, 2])) / 2
-    y = math.sqrt(max(0.0, 1.0 - m[0, 0] + m[1, 1] - m[2, 2])) / 2
-    z = math.sqrt(max(0.0, 1.0 - m[0, 0] - m[1, 1] + m[2, 2])) / 2
-    x = math.copysign(x, m[2, 1] - m[1, 2])
-    y = math.copysign(y, m[0, 2] - m[2, 0])
-    z = math.copysign(z, m[1, 0] - m[0, 1])
-    n = math.sqrt(x * x + y * y + z * z + w * w)
-    return (x / n, y / n, z / n, w / n)
-
-
 def palm_quat(x_axis: Vec3, y_axis: Vec3, z_axis: Vec3) -> Quat:
     """Quaternion of the palm frame whose axes (columns) are ``x_axis``, ``y_axis``, ``z_axis`` (z = approach)."""
-    return quat_from_matrix(np.column_stack([x_axis, y_axis, z_axis]))
+    return quat_tuple_from_matrix(np.column_stack([x_axis, y_axis, z_axis]))
 
 
 @dataclass(frozen=True)
@@ -168,7 +154,7 @@ def draw_placement(rng: np.random.Generator | None, max_tilt_deg: float, spread_
     axis = np.array([math.cos(bearing), math.sin(bearing), 0.0])
     k = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
     r_tilt = np.eye(3) + math.sin(tilt) * k + (1.0 - math.cos(tilt)) * (k @ k)
-    return Placement((x, y, 0.0), quat_from_matrix(r_tilt @ r_yaw))
+    return Placement((x, y, 0.0), quat_tuple_from_matrix(r_tilt @ r_yaw))
 
 
 def uniform(rng: np.random.Generator | None, nominal: float, low: float, high: float) -> float:

@@ -17,8 +17,8 @@ import numpy as np
 import numpy.typing as npt
 
 from tasks.arrays import FloatArray
+from tasks.rotations import matrix_from_quat
 from tasks.simulate import robot as rb
-from tasks.simulate.waypoints import matrix_from_quat
 
 DAMPING = 0.02
 """Damping of the least-squares inverse (metres / radians): keeps joint steps bounded near singularities."""

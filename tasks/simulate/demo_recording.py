@@ -16,9 +16,9 @@ import numpy as np
 
 from schemas.descriptor import Descriptor
 from tasks.arrays import FloatArray, Points, Quats, StampsNs
+from tasks.rotations import matrix_from_quat, quat_from_matrix
 from tasks.simulate.execute import scene_joints
 from tasks.simulate.matching import match_chain
-from tasks.simulate.waypoints import matrix_from_quat, quat_from_matrix
 
 START_NS = 1_700_000_000_000_000_000
 """Stamp of the first sample."""

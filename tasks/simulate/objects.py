@@ -16,7 +16,8 @@ import numpy as np
 
 from schemas.descriptor import Descriptor, Grasp, ObjectRef, Primitive
 from tasks.arrays import FloatArray
-from tasks.simulate.waypoints import matrix_from_axis_angle, quat_from_matrix
+from tasks.rotations import quat_from_matrix
+from tasks.simulate.waypoints import matrix_from_axis_angle
 
 HANDLE_RADIUS = 0.012
 """Bar handles are 24 mm thick."""

@@ -18,9 +18,10 @@ import numpy as np
 
 from tasks.arrays import FloatArray
 from tasks.errors import SimulationError
+from tasks.rotations import quat_from_matrix
 from tasks.simulate.ik import solve_ik
 from tasks.simulate.robot import ARM_JOINTS, ARM_LOWER, ARM_REST, ARM_UPPER, FLANGE_TO_PALM_M, Robot
-from tasks.simulate.waypoints import angle_between_quats, approach_axis, matrix_from_axis_angle, quat_from_matrix
+from tasks.simulate.waypoints import angle_between_quats, approach_axis, matrix_from_axis_angle
 
 RADII_M: tuple[float, ...] = (0.60, 0.50, 0.72, 0.40, 0.85)
 """Horizontal distances of the base from the palm path's centre, metres (the iiwa reaches 0.82 m)."""

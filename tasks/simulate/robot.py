@@ -21,7 +21,7 @@ import numpy.typing as npt
 
 from tasks.arrays import FloatArray
 from tasks.grasp import barrett
-from tasks.simulate.waypoints import matrix_from_quat
+from tasks.rotations import matrix_from_quat
 
 ARM_JOINTS: tuple[int, ...] = (0, 1, 2, 3, 4, 5, 6)
 """pybullet joint indices of the iiwa's seven revolute joints."""

@@ -19,8 +19,8 @@ import numpy as np
 
 from schemas.descriptor import Primitive
 from tasks.arrays import FloatArray
+from tasks.rotations import matrix_from_quat
 from tasks.simulate.control import rotation_vector
-from tasks.simulate.waypoints import matrix_from_quat
 
 BLEND_START_RAD = 0.1
 BLEND_FULL_RAD = 0.3

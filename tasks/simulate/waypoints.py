@@ -15,6 +15,7 @@ import numpy as np
 import numpy.typing as npt
 
 from tasks.arrays import FloatArray, Points, Quats, check_vector3
+from tasks.rotations import matrix_from_quat, quat_from_matrix
 
 ARC_STEP_RAD = math.radians(1.0)
 """Default angular spacing of waypoints along an arc (1°)."""
@@ -38,48 +39,6 @@ def matrix_from_axis_angle(axis: npt.ArrayLike, angle_rad: float) -> FloatArray:
     K = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
     out: FloatArray = np.eye(3) + math.sin(angle_rad) * K + (1.0 - math.cos(angle_rad)) * (K @ K)
     return out
-
-
-def matrix_from_quat(quat_xyzw: npt.ArrayLike) -> FloatArray:
-    """(3, 3) rotation matrix of a quaternion [x, y, z, w] (normalised first)."""
-    q = np.asarray(quat_xyzw, dtype=np.float64)
-    if q.shape != (4,):
-        msg = f"quat_xyzw: expected shape (4,), got {q.shape}"
-        raise ValueError(msg)
-    x, y, z, w = q.tolist()  # plain floats: this runs every control tick
-    norm = math.sqrt(x * x + y * y + z * z + w * w)
-    x, y, z, w = x / norm, y / norm, z / norm, w / norm
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-        ]
-    )
-
-
-def quat_from_matrix(rot: npt.ArrayLike) -> FloatArray:
-    """(4,) quaternion [x, y, z, w] with w >= 0 of a (3, 3) rotation matrix (Shepperd's method)."""
-    R = np.asarray(rot, dtype=np.float64)
-    if R.shape != (3, 3):
-        msg = f"rot: expected shape (3, 3), got {R.shape}"
-        raise ValueError(msg)
-    tr = float(np.trace(R))
-    if tr > 0.0:
-        s = 2.0 * math.sqrt(tr + 1.0)
-        q = [(R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, (R[1, 0] - R[0, 1]) / s, 0.25 * s]
-    elif R[0, 0] > R[1, 1] and R[0, 0] > R[2, 2]:
-        s = 2.0 * math.sqrt(1.0 + R[0, 0] - R[1, 1] - R[2, 2])
-        q = [0.25 * s, (R[0, 1] + R[1, 0]) / s, (R[0, 2] + R[2, 0]) / s, (R[2, 1] - R[1, 2]) / s]
-    elif R[1, 1] > R[2, 2]:
-        s = 2.0 * math.sqrt(1.0 + R[1, 1] - R[0, 0] - R[2, 2])
-        q = [(R[0, 1] + R[1, 0]) / s, 0.25 * s, (R[1, 2] + R[2, 1]) / s, (R[0, 2] - R[2, 0]) / s]
-    else:
-        s = 2.0 * math.sqrt(1.0 + R[2, 2] - R[0, 0] - R[1, 1])
-        q = [(R[0, 2] + R[2, 0]) / s, (R[1, 2] + R[2, 1]) / s, 0.25 * s, (R[1, 0] - R[0, 1]) / s]
-    out = np.array(q, dtype=np.float64)
-    out /= np.linalg.norm(out)
-    return out if out[3] >= 0.0 else -out
 
 
 def angle_between_quats(a_xyzw: npt.ArrayLike, b_xyzw: npt.ArrayLike) -> float:

@@ -11,49 +11,14 @@ from dataclasses import replace
 
 import numpy as np
 
-from schemas.descriptor import Descriptor, Grasp, Primitive, Quat, Vec3
-from tasks.arrays import FloatArray, Points, Vector3
+from schemas.descriptor import Descriptor, Grasp, Primitive, Vec3
+from tasks.arrays import Points, Vector3
+from tasks.rotations import matrix_from_quat, quat_tuple_from_matrix
 from tasks.transfer.similarity import Similarity, angle_between_deg, point_line_distance
 
 
 def _vec3(v: Vector3) -> Vec3:
     return (float(v[0]), float(v[1]), float(v[2]))
-
-
-def matrix_from_quat(quat_xyzw: Quat | FloatArray) -> FloatArray:
-    """3x3 rotation matrix of a quaternion [x, y, z, w] (normalised first)."""
-    q = np.asarray(quat_xyzw, dtype=np.float64)
-    x, y, z, w = q / np.linalg.norm(q)
-    out: FloatArray = np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-        ]
-    )
-    return out
-
-
-def quat_from_matrix(rotation: FloatArray) -> Quat:
-    """Quaternion [x, y, z, w] (w >= 0) of a proper 3x3 rotation matrix."""
-    m = np.asarray(rotation, dtype=np.float64)
-    trace = float(np.trace(m))
-    if trace > 0.0:
-        s = 2.0 * np.sqrt(trace + 1.0)
-        q = np.array([(m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s, 0.25 * s])
-    else:
-        i = int(np.argmax(np.diag(m)))
-        j, k = (i + 1) % 3, (i + 2) % 3
-        s = 2.0 * np.sqrt(1.0 + m[i, i] - m[j, j] - m[k, k])
-        q = np.zeros(4)
-        q[i] = 0.25 * s
-        q[j] = (m[j, i] + m[i, j]) / s
-        q[k] = (m[k, i] + m[i, k]) / s
-        q[3] = (m[k, j] - m[j, k]) / s
-    q /= np.linalg.norm(q)
-    if q[3] < 0.0:
-        q = -q
-    return (float(q[0]), float(q[1]), float(q[2]), float(q[3]))
 
 
 def carry_primitive(prim: Primitive, transform: Similarity) -> Primitive:
@@ -75,7 +40,7 @@ def carry_grasp(grasp: Grasp, transform: Similarity, anchor: Vector3 | None = No
     else:
         position = transform.apply_point(anchor) + transform.rotation @ (wrist - anchor)
     rotation = transform.rotation @ matrix_from_quat(grasp.wrist_orientation)
-    return replace(grasp, wrist_position=_vec3(position), wrist_orientation=quat_from_matrix(rotation))
+    return replace(grasp, wrist_position=_vec3(position), wrist_orientation=quat_tuple_from_matrix(rotation))
 
 
 def carry_chain(chain: tuple[Primitive, ...], transform: Similarity) -> tuple[Primitive, ...]:

@@ -13,7 +13,8 @@ import numpy as np
 
 from schemas.descriptor import Descriptor
 from tasks.arrays import Points
-from tasks.transfer.carry import focus_points, grip_points, matrix_from_quat
+from tasks.rotations import matrix_from_quat
+from tasks.transfer.carry import focus_points, grip_points
 from tasks.transfer.similarity import Similarity
 
 NORMAL_NEIGHBOURS = 12

@@ -9,6 +9,7 @@ import numpy as np
 import pybullet as pb
 import pytest
 
+from tasks.rotations import matrix_from_quat, quat_from_matrix
 from tasks.simulate import robot as rb
 from tasks.simulate.control import (
     joint_step,
@@ -19,7 +20,7 @@ from tasks.simulate.control import (
     rotation_vector,
     screw_twist,
 )
-from tasks.simulate.waypoints import matrix_from_axis_angle, matrix_from_quat, quat_from_matrix
+from tasks.simulate.waypoints import matrix_from_axis_angle
 
 
 @pytest.fixture

@@ -8,9 +8,10 @@ import numpy as np
 import pytest
 
 from tasks.errors import SimulationError
+from tasks.rotations import matrix_from_quat
 from tasks.simulate import robot as rb
 from tasks.simulate.placement import KeyPose, place_base
-from tasks.simulate.waypoints import angle_between_quats, matrix_from_quat
+from tasks.simulate.waypoints import angle_between_quats
 
 
 @pytest.fixture

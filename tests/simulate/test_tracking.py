@@ -7,8 +7,9 @@ import math
 import numpy as np
 
 from schemas.descriptor import Primitive
+from tasks.rotations import matrix_from_quat, quat_from_matrix
 from tasks.simulate.tracking import AxisTracker
-from tasks.simulate.waypoints import matrix_from_axis_angle, matrix_from_quat, quat_from_matrix
+from tasks.simulate.waypoints import matrix_from_axis_angle
 
 TRUE_POS = np.array([0.5, -0.2, 1.0])
 TRUE_DIR = np.array([0.0, 0.0, 1.0])

@@ -9,15 +9,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tasks.simulate.waypoints import (
-    angle_between_quats,
-    arc_waypoints,
-    line_waypoints,
-    matrix_from_axis_angle,
-    matrix_from_quat,
-    quat_from_matrix,
-    unit,
-)
+from tasks.rotations import matrix_from_quat, quat_from_matrix
+from tasks.simulate.waypoints import angle_between_quats, arc_waypoints, line_waypoints, matrix_from_axis_angle, unit
 
 finite = st.floats(-2.0, 2.0, allow_nan=False)
 

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from schemas.descriptor import Grasp, Primitive
-from tasks.transfer.carry import carry_grasp, carry_primitive, matrix_from_quat, quat_from_matrix
+from tasks.rotations import matrix_from_quat, quat_tuple_from_matrix
+from tasks.transfer.carry import carry_grasp, carry_primitive
 from tasks.transfer.shapes import random_rotation
 from tasks.transfer.similarity import Similarity, angle_between_deg, point_line_distance, umeyama
 
@@ -49,8 +50,8 @@ def test_quaternion_round_trip() -> None:
     rng = np.random.default_rng(6)
     for _ in range(20):
         rot = random_rotation(rng)
-        np.testing.assert_allclose(matrix_from_quat(quat_from_matrix(rot)), rot, atol=1e-12)
-    assert quat_from_matrix(np.diag([1.0, -1.0, -1.0])) == pytest.approx((1.0, 0.0, 0.0, 0.0))
+        np.testing.assert_allclose(matrix_from_quat(quat_tuple_from_matrix(rot)), rot, atol=1e-12)
+    assert quat_tuple_from_matrix(np.diag([1.0, -1.0, -1.0])) == pytest.approx((1.0, 0.0, 0.0, 0.0))
 
 
 @pytest.mark.parametrize("scale", [0.8, 1.3])
