@@ -30,6 +30,7 @@ from tasks.errors import GraspError
 from tasks.grasp import barrett
 from tasks.grasp.object_model import ObjectModel, build_object_model, check_object_points, convex_parts, crop_points
 from tasks.grasp.planner import GraspCandidate, PlannerParams, rank_tier, search
+from tasks.grasp.settle import settled_wraps
 from tasks.grasp.shake import QUICK_SHAKE, Motion, ShakeParams, shake_test
 from tasks.recording.load import PoseTrack
 
@@ -296,6 +297,11 @@ def plan_on_model(
         found = [(c, variant) for c in search(variant, seed_rot, pos, rng, round_prm)]
         tried += found
         new = [t for t in found if t[0].near and rank_tier(t[0].quality) == 0]
+        if k == 0:  # wraps the static closing misses: fingers that pull the part into the palm
+            wraps = settled_wraps(
+                [c for c, _ in found], variant, pos, seed_rot, prm.near_position_m, CHECK_MAX_ANGLE_RAD, mu=prm.mu
+            )
+            new = sorted(new + [(c, variant) for c in wraps], key=lambda t: t[0].closeness)
         closure += new
         held = budget.first_that_holds([t for t in new if t[0].angle_rad <= CHECK_MAX_ANGLE_RAD], shake_checks)
         if held is not None:

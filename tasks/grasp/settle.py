@@ -1,0 +1,160 @@
+"""Settling a closed grasp: what the hand holds once the squeezing fingers have pulled the part in.
+
+The planner closes the fingers kinematically on a static model (GraspIt!'s autoGrasp). A hand that wraps a box or
+a cylinder then touches it with its finger links only: every contact presses the part away from the palm, and the
+grasp wrench space has no force closure, though the fingers, squeezing, pull the part into the palm and hold it
+(the benchmark's baseline held 18 of 21 randomised objects this way, with 3 static force closures). Settling
+runs that in pybullet (DIRECT): the part a free body of 0.3 kg without gravity, the palm held still, the fingers
+driven 0.3 rad past contact with at most 1.5 N m (as the shake test squeezes), for 0.3 s. The settled grasp is the
+palm pose relative to the part after that, expressed with the part back where it was (world frame, metres,
+quaternion [x, y, z, w]), and the qualities of its contacts.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+import pybullet as pb
+from scipy.spatial.transform import Rotation
+
+from tasks.arrays import FloatArray, Vector3
+from tasks.grasp import barrett, closing
+from tasks.grasp.object_model import ObjectModel, load_object
+from tasks.grasp.planner import GraspCandidate
+from tasks.grasp.quality import DEFAULT_MU, GraspQuality, grasp_quality
+
+TIME_STEP_S = 1.0 / 240.0
+SETTLE_S = 0.3
+SQUEEZE_RAD = 0.3
+SQUEEZE_TORQUE_NM = 1.5
+PART_MASS_KG = 0.3
+SOLVER_ITERATIONS = 150
+"""As ``shake.ShakeParams``: the same squeeze the hold test applies."""
+WRAP_SETTLES = 3
+MAX_SHIFT_M = 0.02
+"""A settled wrap counts only when the part moved at most 20 mm into the hand: pulled further, the static pose
+was far from a grasp and where the part ends up is the solver's chance (a microwave handle's crop pulled 30 mm
+settled into a force closure that no independent model held)."""
+"""Grasps without a static force closure settled per plan (about 0.1 s CPU each)."""
+
+
+@dataclass(frozen=True)
+class Settled:
+    """A settled grasp: palm ``position`` (3,) m and ``quat_xyzw`` (4,) relative to the part, expressed in the
+    world with the part where the model has it; the quality of its contacts; whether the palm touches the part
+    (``palm_contact``: a wrap); how far the part moved towards the palm (``shift_m``, m)."""
+
+    position: Vector3
+    quat_xyzw: FloatArray
+    quality: GraspQuality
+    palm_contact: bool
+    shift_m: float
+
+
+def settle(model: ObjectModel, position: Vector3, quat_xyzw: FloatArray, spread_rad: float, mu: float) -> Settled:
+    """Close the open hand at spread ``spread_rad`` (rad) at the palm pose (world) on the part as a free body,
+    squeeze and settle (see the module docstring); ``mu``: the friction coefficient of the quality."""
+    client = pb.connect(pb.DIRECT)
+    try:
+        pb.setTimeStep(TIME_STEP_S, physicsClientId=client)
+        pb.setPhysicsEngineParameter(numSolverIterations=SOLVER_ITERATIONS, physicsClientId=client)
+        obj = load_object(client, model, mass_kg=PART_MASS_KG)
+        hand = barrett.load_hand(client, position, quat_xyzw)
+        opened = closing.open_free(client, hand, obj, spread_rad)
+        closed = closing.close_fingers(client, hand, obj, opened)
+        barrett.drive_dofs(
+            client,
+            hand,
+            np.concatenate([[closed[0]], np.minimum(closed[1:4] + SQUEEZE_RAD, barrett.DOF_UPPER[1:])]),
+            max_torque_nm=SQUEEZE_TORQUE_NM,
+            distal=np.minimum(closed[4:7] + SQUEEZE_RAD, barrett.DISTAL_UPPER),
+        )
+        for joint in barrett.SPREAD_JOINTS:
+            pb.setJointMotorControl2(
+                hand, joint, pb.POSITION_CONTROL, targetPosition=float(closed[0]), force=20.0, physicsClientId=client
+            )
+        pos = [float(v) for v in position]
+        quat = [float(v) for v in quat_xyzw]
+        anchor = pb.createConstraint(
+            hand,
+            -1,
+            -1,
+            -1,
+            pb.JOINT_FIXED,
+            [0, 0, 0],
+            [0, 0, 0],
+            pos,
+            childFrameOrientation=quat,
+            physicsClientId=client,
+        )
+        pb.changeConstraint(anchor, pos, quat, maxForce=5000.0, physicsClientId=client)
+        start_pos, start_quat = pb.getBasePositionAndOrientation(obj, physicsClientId=client)
+        for _ in range(round(SETTLE_S / TIME_STEP_S)):
+            pb.stepSimulation(physicsClientId=client)
+        end_pos, end_quat = pb.getBasePositionAndOrientation(obj, physicsClientId=client)
+        palm_pos, palm_quat = pb.getBasePositionAndOrientation(hand, physicsClientId=client)
+        contacts = closing.contacts_of(client, hand, obj)
+    finally:
+        pb.disconnect(client)
+    back = Rotation.from_quat(start_quat) * Rotation.from_quat(end_quat).inv()  # the part's motion undone
+
+    def undo(points: np.ndarray) -> np.ndarray:
+        return np.asarray(back.apply(points - np.asarray(end_pos)) + np.asarray(start_pos), dtype=np.float64)
+
+    quality = grasp_quality(undo(contacts.positions), back.apply(contacts.normals_in), model.center, model.radius, mu)
+    return Settled(
+        undo(np.asarray(palm_pos, dtype=np.float64)),
+        (back * Rotation.from_quat(palm_quat)).as_quat(),
+        quality,
+        bool(np.any(contacts.links == -1)),
+        float(np.linalg.norm(np.asarray(end_pos) - np.asarray(start_pos))),
+    )
+
+
+def settled_wraps(  # noqa: PLR0917 -- candidates, model, seed pose, limits
+    candidates: list[GraspCandidate],
+    model: ObjectModel,
+    seed_position: Vector3,
+    seed_rot: FloatArray,
+    max_lateral_m: float,
+    max_angle_rad: float,
+    *,
+    count: int = WRAP_SETTLES,
+    mu: float = DEFAULT_MU,
+) -> list[GraspCandidate]:
+    """Wraps among grasps without a static force closure: of the ``candidates`` on or along the demonstrated
+    approach (``near`` or ``reach``) within ``max_angle_rad`` of the demonstrated palm, the ``count`` closest are
+    settled; those that settle into a force closure with the palm on the part, the part pulled in at most
+    ``MAX_SHIFT_M``, their settled palm within
+    ``max_lateral_m`` of the demonstrated approach (world, m) and ``max_angle_rad`` of the demonstrated palm
+    (rotation ``seed_rot`` (3, 3)), come back as near candidates at their settled palm pose with the settled
+    qualities (friction coefficient ``mu``)."""
+    approach = seed_rot[:, 2]
+    pool = sorted(
+        (c for c in candidates if (c.near or c.reach) and not c.quality.force_closure and c.angle_rad <= max_angle_rad),
+        key=lambda c: c.closeness,
+    )
+    out: list[GraspCandidate] = []
+    for cand in pool[:count]:
+        done = settle(model, cand.position, cand.quat_xyzw, float(cand.closed[0]), mu)
+        rel = done.position - np.asarray(seed_position, dtype=np.float64)
+        lateral = float(np.linalg.norm(rel - float(rel @ approach) * approach))
+        angle = float((Rotation.from_matrix(seed_rot).inv() * Rotation.from_quat(done.quat_xyzw)).magnitude())
+        if not (done.quality.force_closure and done.palm_contact) or done.shift_m > MAX_SHIFT_M:
+            continue
+        if lateral > max_lateral_m or angle > max_angle_rad:
+            continue
+        out.append(
+            dataclasses.replace(
+                cand,
+                position=done.position,
+                quat_xyzw=done.quat_xyzw,
+                quality=done.quality,
+                offset_m=lateral,
+                angle_rad=angle,
+                near=True,
+            )
+        )
+    return out
