@@ -301,7 +301,7 @@ def plan_on_model(
             wraps = settled_wraps(
                 [c for c, _ in found], variant, pos, seed_rot, prm.near_position_m, CHECK_MAX_ANGLE_RAD, mu=prm.mu
             )
-            new = sorted(new + [(c, variant) for c in wraps], key=lambda t: t[0].closeness)
+            new = [(c, variant) for c in wraps] + new  # a palm-on-part wrap first: it held where fingertips slid
         closure += new
         held = budget.first_that_holds([t for t in new if t[0].angle_rad <= CHECK_MAX_ANGLE_RAD], shake_checks)
         if held is not None:
