@@ -367,7 +367,8 @@ def run_case(case: Case, seed: int, index: int) -> Row:
     """Plan (with the planner's own shake check), then the benchmark's hold test (``hold_program`` on the case's
     independent model, both drawn from generators of the benchmark's own) of the plan and of the baseline."""
     part = part_near(case.points, case.seed_pos)
-    model = build_object_model(part, np.random.default_rng(seed), viewpoint=case.seed_pos)
+    approach = Rotation.from_quat(case.seed_quat).as_matrix()[:, 2]
+    model = build_object_model(part, np.random.default_rng(seed), viewpoint=case.seed_pos, approach=approach)
     truth = case.truth(np.random.default_rng([seed, 1, index]))
     program = hold_program(np.random.default_rng([seed, 2, index]))
     t0 = time.perf_counter()

@@ -28,7 +28,7 @@ from schemas.descriptor import Grasp
 from tasks.arrays import FloatArray, Points, Vector3
 from tasks.errors import GraspError
 from tasks.grasp import barrett
-from tasks.grasp.object_model import ObjectModel, build_object_model, check_object_points, convex_parts, crop_points
+from tasks.grasp.object_model import ObjectModel, build_object_model, check_object_points, crop_points
 from tasks.grasp.planner import GraspCandidate, PlannerParams, rank_tier, search
 from tasks.grasp.settle import settled_wraps
 from tasks.grasp.shake import QUICK_SHAKE, Motion, ShakeParams, shake_test
@@ -257,11 +257,7 @@ def redecomposed(model: ObjectModel, rng: np.random.Generator) -> ObjectModel:
     """The model with its convex pieces drawn anew (k-means from ``rng``); a primitive model as it is. Which
     grasps close into force closure on a scan depends on how its pieces fall (the door's lever: near force
     closures with some draws, none with others)."""
-    if model.primitive is not None or not model.parts:
-        return model
-    return ObjectModel(
-        model.points, model.normals, model.center, model.radius, convex_parts(model.points, model.normals, rng)
-    )
+    return model.with_pieces(rng)
 
 
 def plan_on_model(
@@ -339,8 +335,9 @@ def plan_grasp(
 ) -> Grasp:
     """Plan a Barrett grasp on ``object_points`` (n, 3) (world, metres) near a seed **palm** pose (the hand base
     frame, world; +z approach). ``quality["force_closure"]`` is false only when no force-closure grasp was found."""
-    _check_seed(seed_position, seed_quat_xyzw)
-    model = build_object_model(object_points, rng, viewpoint=np.asarray(seed_position, dtype=np.float64))
+    pos, quat = _check_seed(seed_position, seed_quat_xyzw)
+    approach = Rotation.from_quat(quat).as_matrix()[:, 2]
+    model = build_object_model(object_points, rng, viewpoint=pos, approach=approach)
     return grasp_from_candidate(plan_on_model(model, seed_position, seed_quat_xyzw, rng, params))
 
 

@@ -100,6 +100,17 @@ class ObjectModel:
         parts = self.parts[: len(self.parts) - self.mount_parts]
         return ObjectModel(self.points[keep], self.normals[keep], self.center, self.radius, parts)
 
+    def with_pieces(self, rng: np.random.Generator) -> ObjectModel:
+        """The model with its convex pieces drawn anew (k-means from ``rng``), the part's and the mount's apart; a
+        primitive model as it is."""
+        if self.primitive is not None or not self.parts:
+            return self
+        if self.mount is None or not self.mount_parts:
+            return ObjectModel(
+                self.points, self.normals, self.center, self.radius, convex_parts(self.points, self.normals, rng)
+            )
+        return _mounted(self.points, self.normals, self.mount, rng)
+
 
 def check_object_points(points: object, name: str = "object_points") -> Points:
     """(n, 3) finite float64 object points or ``GraspError`` naming what is wrong."""
@@ -260,9 +271,12 @@ def build_object_model(
     normals: Points | None = None,
     primitive: PrimitiveShape | None = None,
     viewpoint: Vector3 | None = None,
+    approach: Vector3 | None = None,
 ) -> ObjectModel:
     """Object model for planning from (n, 3) world points (m): downsampled, normals (oriented away from
-    ``viewpoint``, a place outside the object, when given), convex parts or primitive."""
+    ``viewpoint``, a place outside the object, when given), convex parts or primitive. With ``approach`` too (a
+    unit vector, world: the demonstrated palm's +z), the mount the part stands on is looked for
+    (``tasks.grasp.mount``) and, when found, kept apart (``ObjectModel.mount``)."""
     pts = check_object_points(points)
     if normals is None:
         pts = voxel_downsample(pts, voxel_m)
@@ -275,6 +289,12 @@ def build_object_model(
         if nrm.shape != pts.shape:
             msg = f"normals: expected shape {pts.shape}, got {nrm.shape}"
             raise GraspError(msg)
+    if approach is not None and viewpoint is not None and primitive is None:
+        from tasks.grasp.mount import find_mount  # noqa: PLC0415 - open3d, only when a mount is looked for
+
+        mount = find_mount(pts, viewpoint, approach)
+        if mount.any() and int((~mount).sum()) >= MIN_POINTS:
+            return _mounted(pts, nrm, mount, rng)
     center = pts.mean(axis=0)
     radius = float(np.linalg.norm(pts - center, axis=1).max())
     parts = () if primitive is not None else convex_parts(pts, nrm, rng)
@@ -290,13 +310,18 @@ def labelled_model(
     grip = voxel_downsample(check_object_points(part, "part points"), voxel_m)
     face = voxel_downsample(check_object_points(mount, "mount points"), voxel_m)
     pts = np.concatenate([grip, face])
-    nrm = estimate_normals(pts, viewpoint=viewpoint)
-    on_mount = np.arange(len(pts)) >= len(grip)
+    return _mounted(pts, estimate_normals(pts, viewpoint=viewpoint), np.arange(len(pts)) >= len(grip), rng)
+
+
+def _mounted(points: Points, normals: Points, mount: BoolArray, rng: np.random.Generator) -> ObjectModel:
+    """A model with a mount: the part's convex pieces then the mount's, each cut apart; the part's centre and
+    radius."""
+    grip = points[~mount]
     center = grip.mean(axis=0)
     radius = float(np.linalg.norm(grip - center, axis=1).max())
-    pieces = convex_parts(grip, nrm[~on_mount], rng)
-    mount_pieces = convex_parts(face, nrm[on_mount], rng)
-    return ObjectModel(pts, nrm, center, radius, pieces + mount_pieces, None, on_mount, len(mount_pieces))
+    pieces = convex_parts(grip, normals[~mount], rng)
+    mount_pieces = convex_parts(points[mount], normals[mount], rng)
+    return ObjectModel(points, normals, center, radius, pieces + mount_pieces, None, mount, len(mount_pieces))
 
 
 def crop_points(points: Points, center: Vector3, radius_m: float) -> Points:

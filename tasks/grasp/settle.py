@@ -7,7 +7,9 @@ grasp wrench space has no force closure, though the fingers, squeezing, pull the
 runs that in pybullet (DIRECT): the part a free body of 0.3 kg without gravity, the palm held still, the fingers
 driven 0.3 rad past contact with at most 1.5 N m (as the shake test squeezes), for 0.3 s. The settled grasp is the
 palm pose relative to the part after that, expressed with the part back where it was (world frame, metres,
-quaternion [x, y, z, w]), and the qualities of its contacts.
+quaternion [x, y, z, w]), and the qualities of its contacts. A model with a mount (the face a handle stands on)
+is closed on whole and held static; then the part alone is the free body and a finger the mount stopped holds
+its place, as in the shake test.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from tasks.grasp import barrett, closing
 from tasks.grasp.object_model import ObjectModel, load_object
 from tasks.grasp.planner import GraspCandidate
 from tasks.grasp.quality import DEFAULT_MU, GraspQuality, grasp_quality
+from tasks.grasp.shake import FINGER_LINKS
 
 TIME_STEP_S = 1.0 / 240.0
 SETTLE_S = 0.3
@@ -60,16 +63,27 @@ def settle(model: ObjectModel, position: Vector3, quat_xyzw: FloatArray, spread_
     try:
         pb.setTimeStep(TIME_STEP_S, physicsClientId=client)
         pb.setPhysicsEngineParameter(numSolverIterations=SOLVER_ITERATIONS, physicsClientId=client)
-        obj = load_object(client, model, mass_kg=PART_MASS_KG)
+        part = model.without_mount()
+        mounted = part is not model
+        obj = load_object(client, model, mass_kg=0.0 if mounted else PART_MASS_KG)
         hand = barrett.load_hand(client, position, quat_xyzw)
         opened = closing.open_free(client, hand, obj, spread_rad)
         closed = closing.close_fingers(client, hand, obj, opened)
+        squeeze = np.full(3, SQUEEZE_RAD)
+        if mounted:  # closed with the mount in the way; then the part alone is free, a finger on the mount holds
+            touched = closing.contacts_of(client, hand, obj)
+            on_mount = model.is_mount_piece(touched.pieces)
+            for finger, links in enumerate(FINGER_LINKS):
+                if np.any(on_mount & np.isin(touched.links, links)):
+                    squeeze[finger] = 0.0
+            pb.removeBody(obj, physicsClientId=client)
+            obj = load_object(client, part, mass_kg=PART_MASS_KG)
         barrett.drive_dofs(
             client,
             hand,
-            np.concatenate([[closed[0]], np.minimum(closed[1:4] + SQUEEZE_RAD, barrett.DOF_UPPER[1:])]),
+            np.concatenate([[closed[0]], np.minimum(closed[1:4] + squeeze, barrett.DOF_UPPER[1:])]),
             max_torque_nm=SQUEEZE_TORQUE_NM,
-            distal=np.minimum(closed[4:7] + SQUEEZE_RAD, barrett.DISTAL_UPPER),
+            distal=np.minimum(closed[4:7] + squeeze, barrett.DISTAL_UPPER),
         )
         for joint in barrett.SPREAD_JOINTS:
             pb.setJointMotorControl2(

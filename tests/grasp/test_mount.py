@@ -3,10 +3,18 @@
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from schemas.descriptor import Grasp
 from tasks.arrays import Points
-from tasks.grasp.object_model import ObjectModel, build_object_model, labelled_model, sample_box_surface
+from tasks.grasp.mount import find_mount
+from tasks.grasp.object_model import (
+    ObjectModel,
+    build_object_model,
+    labelled_model,
+    sample_box_surface,
+    sample_cylinder_surface,
+)
 from tasks.grasp.shake import shake_test
 
 from .conftest import PALM_DOWN
@@ -74,3 +82,35 @@ def test_fingers_stopped_by_the_mount_do_not_hold_the_part() -> None:
     assert not mounted.holds  # the fingers close on the walls: the box, a free body, falls
     as_one = shake_test(build_object_model(np.concatenate([box, walls]), rng, viewpoint=view), grasp)
     assert as_one.holds  # box and walls one body: pinching the walls carries the box
+
+
+def _handle_on_plate(rng: np.random.Generator) -> tuple[Points, Points]:
+    """A vertical bar (12 mm radius, 140 mm) 40 mm in front (-y) of a 10 mm plate 60 x 200 mm: bar, plate."""
+    bar, _ = sample_cylinder_surface(0.012, 0.07, 1500, rng)
+    plate, _ = sample_box_surface(np.array([0.03, 0.005, 0.10]), 1500, rng)
+    return bar + CENTRE, plate + CENTRE + np.array([0.0, 0.045, 0.0])
+
+
+def test_the_plate_behind_a_handle_is_its_mount() -> None:
+    rng = np.random.default_rng(2)
+    bar, plate = _handle_on_plate(rng)
+    points = np.concatenate([bar, plate])
+    palm = CENTRE - np.array([0.0, 0.05, 0.0])
+    mount = find_mount(points, palm, np.array([0.0, 1.0, 0.0]))
+    assert not mount[: len(bar)].any()
+    assert mount[len(bar) :].mean() > 0.3  # the plate's face towards the hand (and its back, 10 mm on, apart)
+    model = build_object_model(points, rng, viewpoint=palm, approach=np.array([0.0, 1.0, 0.0]))
+    assert model.mount is not None and model.mount_parts > 0
+    assert np.all(np.abs(model.without_mount().points[:, 1] - CENTRE[1]) < 0.02)  # the bar alone
+
+
+def test_a_box_face_or_a_cylinder_the_palm_meets_first_is_no_mount() -> None:
+    rng = np.random.default_rng(3)
+    box = _box(rng)
+    above = CENTRE + np.array([0.0, 0.0, 0.1])
+    assert not find_mount(box, above, np.array([0.0, 0.0, -1.0])).any()  # its top faces the palm: the part
+    lying, _ = sample_cylinder_surface(0.03, 0.08, 3000, rng)
+    cylinder = Rotation.from_euler("y", 90, degrees=True).apply(lying) + CENTRE
+    assert not find_mount(cylinder, above, np.array([0.0, 0.0, -1.0])).any()  # its far side is a strip
+    side = CENTRE - np.array([0.0, 0.1, 0.0])
+    assert not find_mount(box, side, np.array([0.0, 1.0, 0.0])).any()  # the far face is smaller than the hand
