@@ -62,9 +62,11 @@ class PrimitiveShape:
 class ObjectModel:
     """Object for planning: ``points`` (n, 3) m world, outward unit ``normals`` (n, 3), ``center`` (3,) m
     (centroid of the part), ``radius`` m (largest distance of a part point from the centre), convex ``parts``
-    (each (k, 3) m world) or a ``primitive``. ``mount`` (n,), when known (``labelled_model``), marks the points
-    of the face the part stands on (a handle's plate, a lever's door leaf): an obstacle to the closing fingers,
-    not part of the free body in the shake test; its pieces are the last ``mount_parts`` of ``parts``."""
+    (each (k, 3) m world) or a ``primitive``. ``mount`` (n,), when known (found by ``tasks.grasp.mount`` when
+    ``build_object_model`` is given the approach, or given to ``labelled_model``), marks the points of the face
+    the part stands on (a handle's plate, a lever's door leaf) and all behind it: an obstacle to the closing
+    fingers, not part of the free body when shaken or settled; its pieces are the last ``mount_parts`` of
+    ``parts``."""
 
     points: Points
     normals: Points
