@@ -4,12 +4,11 @@ The planner closes the fingers kinematically on a static model (GraspIt!'s autoG
 a cylinder then touches it with its finger links only: every contact presses the part away from the palm, and the
 grasp wrench space has no force closure, though the fingers, squeezing, pull the part into the palm and hold it
 (the benchmark's baseline held 18 of 21 randomised objects this way, with 3 static force closures). Settling
-runs that in pybullet (DIRECT): the part a free body of 0.3 kg without gravity, the palm held still, the fingers
-driven 0.3 rad past contact with at most 1.5 N m (as the shake test squeezes), for 0.3 s. The settled grasp is the
-palm pose relative to the part after that, expressed with the part back where it was (world frame, metres,
-quaternion [x, y, z, w]), and the qualities of its contacts. A model with a mount (the face a handle stands on)
-is closed on whole and held static; then the part alone is the free body and a finger the mount stopped holds
-its place, as in the shake test.
+runs that in pybullet (DIRECT): the grasp set up as the shake test sets it up (``shake.grip``: the part a free
+body of 0.3 kg, the palm held still, the fingers driven 0.3 rad past contact with at most 1.5 N m), without
+gravity, for 0.3 s (a model with a mount is closed on whole, then the part alone is the free body). The settled
+grasp is the palm pose relative to the part after that, expressed with the part back where it was (world frame,
+metres, quaternion [x, y, z, w]), and the qualities of its contacts.
 """
 
 from __future__ import annotations
@@ -22,25 +21,21 @@ import pybullet as pb
 from scipy.spatial.transform import Rotation
 
 from tasks.arrays import FloatArray, Vector3
-from tasks.grasp import barrett, closing
-from tasks.grasp.object_model import ObjectModel, load_object
+from tasks.grasp import closing
+from tasks.grasp.object_model import ObjectModel
 from tasks.grasp.planner import GraspCandidate
 from tasks.grasp.quality import DEFAULT_MU, GraspQuality, grasp_quality
-from tasks.grasp.shake import FINGER_LINKS
+from tasks.grasp.shake import TIME_STEP_S, ShakeParams, grip
 
-TIME_STEP_S = 1.0 / 240.0
 SETTLE_S = 0.3
-SQUEEZE_RAD = 0.3
-SQUEEZE_TORQUE_NM = 1.5
-PART_MASS_KG = 0.3
-SOLVER_ITERATIONS = 150
-"""As ``shake.ShakeParams``: the same squeeze the hold test applies."""
+SQUEEZE = ShakeParams()
+"""The hold test's squeeze (``shake.grip``: 0.3 rad past contact, 1.5 N m, a part of 0.3 kg, the same friction)."""
 WRAP_SETTLES = 3
+"""Grasps without a static force closure settled per plan (about 0.1 s CPU each)."""
 MAX_SHIFT_M = 0.02
 """A settled wrap counts only when the part moved at most 20 mm into the hand: pulled further, the static pose
 was far from a grasp and where the part ends up is the solver's chance (a microwave handle's crop pulled 30 mm
 settled into a force closure that no independent model held)."""
-"""Grasps without a static force closure settled per plan (about 0.1 s CPU each)."""
 
 
 @dataclass(frozen=True)
@@ -62,48 +57,9 @@ def settle(model: ObjectModel, position: Vector3, quat_xyzw: FloatArray, spread_
     client = pb.connect(pb.DIRECT)
     try:
         pb.setTimeStep(TIME_STEP_S, physicsClientId=client)
-        pb.setPhysicsEngineParameter(numSolverIterations=SOLVER_ITERATIONS, physicsClientId=client)
-        part = model.without_mount()
-        mounted = part is not model
-        obj = load_object(client, model, mass_kg=0.0 if mounted else PART_MASS_KG)
-        hand = barrett.load_hand(client, position, quat_xyzw)
-        opened = closing.open_free(client, hand, obj, spread_rad)
-        closed = closing.close_fingers(client, hand, obj, opened)
-        squeeze = np.full(3, SQUEEZE_RAD)
-        if mounted:  # closed with the mount in the way; then the part alone is free, a finger on the mount holds
-            touched = closing.contacts_of(client, hand, obj)
-            on_mount = model.is_mount_piece(touched.pieces)
-            for finger, links in enumerate(FINGER_LINKS):
-                if np.any(on_mount & np.isin(touched.links, links)):
-                    squeeze[finger] = 0.0
-            pb.removeBody(obj, physicsClientId=client)
-            obj = load_object(client, part, mass_kg=PART_MASS_KG)
-        barrett.drive_dofs(
-            client,
-            hand,
-            np.concatenate([[closed[0]], np.minimum(closed[1:4] + squeeze, barrett.DOF_UPPER[1:])]),
-            max_torque_nm=SQUEEZE_TORQUE_NM,
-            distal=np.minimum(closed[4:7] + squeeze, barrett.DISTAL_UPPER),
-        )
-        for joint in barrett.SPREAD_JOINTS:
-            pb.setJointMotorControl2(
-                hand, joint, pb.POSITION_CONTROL, targetPosition=float(closed[0]), force=20.0, physicsClientId=client
-            )
-        pos = [float(v) for v in position]
-        quat = [float(v) for v in quat_xyzw]
-        anchor = pb.createConstraint(
-            hand,
-            -1,
-            -1,
-            -1,
-            pb.JOINT_FIXED,
-            [0, 0, 0],
-            [0, 0, 0],
-            pos,
-            childFrameOrientation=quat,
-            physicsClientId=client,
-        )
-        pb.changeConstraint(anchor, pos, quat, maxForce=5000.0, physicsClientId=client)
+        pb.setPhysicsEngineParameter(numSolverIterations=SQUEEZE.solver_iterations, physicsClientId=client)
+        posture = np.array([spread_rad, 0.0, 0.0, 0.0])
+        hand, obj, _ = grip(client, model, position, quat_xyzw, posture, SQUEEZE)
         start_pos, start_quat = pb.getBasePositionAndOrientation(obj, physicsClientId=client)
         for _ in range(round(SETTLE_S / TIME_STEP_S)):
             pb.stepSimulation(physicsClientId=client)

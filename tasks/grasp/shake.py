@@ -29,7 +29,7 @@ import pybullet as pb
 from scipy.spatial.transform import Rotation
 
 from schemas.descriptor import Grasp
-from tasks.arrays import FloatArray, Points
+from tasks.arrays import FloatArray, Points, Vector3
 from tasks.grasp import barrett, closing
 from tasks.grasp.object_model import MIN_POINTS, ObjectModel, convex_parts, load_object
 
@@ -130,6 +130,75 @@ def _grasped_part(model: ObjectModel, contact_positions: Points, radius_m: float
     return ObjectModel(pts, nrm, centre, radius, convex_parts(pts, nrm, np.random.default_rng(0)))
 
 
+def grip(  # noqa: PLR0917 -- pybullet client, model, palm pose, posture, settings
+    client: int, model: ObjectModel, position: Vector3, quat_xyzw: FloatArray, dofs: FloatArray, prm: ShakeParams
+) -> tuple[int, int, int]:
+    """Set up a grasp in pybullet ``client``: the hand at the palm pose (world, m, [x, y, z, w]) closed from the
+    open hand at spread ``dofs[0]`` (or set to the (4,) DOFs ``dofs`` when ``prm.close`` is False), on the part as
+    a free body (its mount, if any, an obstacle while the fingers close, then removed; a finger it stopped holds
+    its place), the fingers squeezing, the spread held, the palm held by a fixed constraint. Returns the hand,
+    the part and the constraint ids."""
+    pos = np.asarray(position, dtype=np.float64)
+    quat = np.asarray(quat_xyzw, dtype=np.float64)
+    part_only = model.without_mount()  # the free body is the part, not the face it stands on
+    mounted = prm.close and part_only is not model  # close on the part and its mount (static), then swap
+    loaded = model if prm.close else part_only
+    obj = load_object(client, loaded, mass_kg=0.0 if mounted else prm.mass_kg, friction=prm.friction)
+    hand = barrett.load_hand(client, pos, quat)
+    for link in range(-1, 9):
+        pb.changeDynamics(
+            hand, link, lateralFriction=1.0, spinningFriction=prm.spinning_friction_m, physicsClientId=client
+        )
+    blocked = np.zeros(3, dtype=bool)  # fingers stopped by the mount: they hold still, not squeeze on
+    if prm.close:
+        opened = closing.open_free(client, hand, obj, float(dofs[0]))
+        closed = closing.close_fingers(client, hand, obj, opened)
+        free = part_only
+        if mounted or prm.part_radius_m is not None:
+            contacts = closing.contacts_of(client, hand, obj)
+            on_mount = model.is_mount_piece(contacts.pieces)
+            for finger, links in enumerate(FINGER_LINKS):
+                blocked[finger] = bool(np.any(on_mount & np.isin(contacts.links, links)))
+            if prm.part_radius_m is not None:
+                free = _grasped_part(part_only, contacts.positions[~on_mount], prm.part_radius_m)
+        if mounted or free is not part_only:
+            pb.removeBody(obj, physicsClientId=client)
+            obj = load_object(client, free, mass_kg=prm.mass_kg, friction=prm.friction)
+    else:
+        barrett.apply_dofs(client, hand, dofs)
+        closed = np.concatenate([dofs, barrett.coupled_distal(dofs[1:])])
+    squeeze = np.where(blocked, 0.0, prm.squeeze_rad if prm.close else 0.0)
+    target_prox = np.minimum(closed[1:4] + squeeze, barrett.DOF_UPPER[1:])
+    target_dist = np.minimum(closed[4:7] + squeeze, barrett.DISTAL_UPPER)
+    barrett.drive_dofs(
+        client,
+        hand,
+        np.concatenate([[closed[0]], target_prox]),
+        max_torque_nm=prm.squeeze_torque_nm,
+        distal=target_dist,
+    )
+    pb.setJointMotorControl2(
+        hand, 0, pb.POSITION_CONTROL, targetPosition=float(closed[0]), force=20.0, physicsClientId=client
+    )
+    pb.setJointMotorControl2(
+        hand, 3, pb.POSITION_CONTROL, targetPosition=float(closed[0]), force=20.0, physicsClientId=client
+    )
+    anchor = pb.createConstraint(
+        hand,
+        -1,
+        -1,
+        -1,
+        pb.JOINT_FIXED,
+        [0, 0, 0],
+        [0, 0, 0],
+        pos.tolist(),
+        childFrameOrientation=quat.tolist(),
+        physicsClientId=client,
+    )
+    pb.changeConstraint(anchor, pos.tolist(), quat.tolist(), maxForce=5000.0, physicsClientId=client)
+    return hand, obj, anchor
+
+
 def shake_test(model: ObjectModel, grasp: Grasp, params: ShakeParams | None = None) -> ShakeResult:
     """Close ``grasp`` on the part as a free body and shake it; see the module docstring."""
     prm = params or ShakeParams()
@@ -137,65 +206,9 @@ def shake_test(model: ObjectModel, grasp: Grasp, params: ShakeParams | None = No
     try:
         pb.setTimeStep(TIME_STEP_S, physicsClientId=client)
         pb.setPhysicsEngineParameter(numSolverIterations=prm.solver_iterations, physicsClientId=client)
-        part_only = model.without_mount()  # the free body is the part, not the face it stands on
-        mounted = prm.close and part_only is not model  # close on the part and its mount (static), then swap
-        loaded = model if prm.close else part_only
-        obj = load_object(client, loaded, mass_kg=0.0 if mounted else prm.mass_kg, friction=prm.friction)
-        hand = barrett.load_hand(client, grasp.wrist_position, grasp.wrist_orientation)
-        for link in range(-1, 9):
-            pb.changeDynamics(
-                hand, link, lateralFriction=1.0, spinningFriction=prm.spinning_friction_m, physicsClientId=client
-            )
         pos = np.array(grasp.wrist_position)
         quat = np.array(grasp.wrist_orientation)
-        dofs = barrett.dofs_from_eigengrasps(*grasp.eigengrasps)
-        blocked = np.zeros(3, dtype=bool)  # fingers stopped by the mount: they hold still, not squeeze on
-        if prm.close:
-            opened = closing.open_free(client, hand, obj, float(dofs[0]))
-            closed = closing.close_fingers(client, hand, obj, opened)
-            free = part_only
-            if mounted or prm.part_radius_m is not None:
-                contacts = closing.contacts_of(client, hand, obj)
-                on_mount = model.is_mount_piece(contacts.pieces)
-                for finger, links in enumerate(FINGER_LINKS):
-                    blocked[finger] = bool(np.any(on_mount & np.isin(contacts.links, links)))
-                if prm.part_radius_m is not None:
-                    free = _grasped_part(part_only, contacts.positions[~on_mount], prm.part_radius_m)
-            if mounted or free is not part_only:
-                pb.removeBody(obj, physicsClientId=client)
-                obj = load_object(client, free, mass_kg=prm.mass_kg, friction=prm.friction)
-        else:
-            barrett.apply_dofs(client, hand, dofs)
-            closed = np.concatenate([dofs, barrett.coupled_distal(dofs[1:])])
-        squeeze = np.where(blocked, 0.0, prm.squeeze_rad if prm.close else 0.0)
-        target_prox = np.minimum(closed[1:4] + squeeze, barrett.DOF_UPPER[1:])
-        target_dist = np.minimum(closed[4:7] + squeeze, barrett.DISTAL_UPPER)
-        barrett.drive_dofs(
-            client,
-            hand,
-            np.concatenate([[closed[0]], target_prox]),
-            max_torque_nm=prm.squeeze_torque_nm,
-            distal=target_dist,
-        )
-        pb.setJointMotorControl2(
-            hand, 0, pb.POSITION_CONTROL, targetPosition=float(closed[0]), force=20.0, physicsClientId=client
-        )
-        pb.setJointMotorControl2(
-            hand, 3, pb.POSITION_CONTROL, targetPosition=float(closed[0]), force=20.0, physicsClientId=client
-        )
-        anchor = pb.createConstraint(
-            hand,
-            -1,
-            -1,
-            -1,
-            pb.JOINT_FIXED,
-            [0, 0, 0],
-            [0, 0, 0],
-            pos.tolist(),
-            childFrameOrientation=quat.tolist(),
-            physicsClientId=client,
-        )
-        pb.changeConstraint(anchor, pos.tolist(), quat.tolist(), maxForce=5000.0, physicsClientId=client)
+        hand, obj, anchor = grip(client, model, pos, quat, barrett.dofs_from_eigengrasps(*grasp.eigengrasps), prm)
         for _ in range(int(0.3 / TIME_STEP_S)):
             pb.stepSimulation(physicsClientId=client)
         ref_pos, ref_rot = _relative(client, hand, obj)
