@@ -15,9 +15,9 @@ import math
 
 import numpy as np
 import numpy.typing as npt
+import pybullet as pb
 
 from tasks.arrays import FloatArray
-from tasks.rotations import matrix_from_quat
 from tasks.simulate import robot as rb
 
 DAMPING = 0.02
@@ -94,13 +94,21 @@ def rotation_vector(rot: FloatArray) -> FloatArray:
     return out
 
 
+def tick_matrix(quat_xyzw: npt.ArrayLike) -> FloatArray:
+    """(3, 3) rotation matrix of a quaternion [x, y, z, w] (world from frame) by pybullet's
+    ``getMatrixFromQuaternion``: for the control tick, a fifth of the cost of ``tasks.rotations.matrix_from_quat``
+    (scipy's ``Rotation`` with its checks, 8 µs a call), which the rest of pbd uses."""
+    q = [float(v) for v in np.asarray(quat_xyzw, dtype=np.float64)]
+    return np.asarray(pb.getMatrixFromQuaternion(q), dtype=np.float64).reshape(3, 3)
+
+
 def pose_error(
     position: FloatArray, quat_xyzw: FloatArray, target_position: npt.ArrayLike, target_quat_xyzw: npt.ArrayLike
 ) -> FloatArray:
     """(6,) world twist taking the palm pose (``position``, ``quat_xyzw``) to the target: [dp (m), rotation
     vector (rad)]."""
     dp = np.asarray(target_position, dtype=np.float64) - position
-    drot = matrix_from_quat(target_quat_xyzw) @ matrix_from_quat(quat_xyzw).T
+    drot = tick_matrix(target_quat_xyzw) @ tick_matrix(quat_xyzw).T
     return np.concatenate([dp, rotation_vector(drot)])
 
 

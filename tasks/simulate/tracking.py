@@ -19,8 +19,7 @@ import numpy as np
 
 from schemas.descriptor import Primitive
 from tasks.arrays import FloatArray
-from tasks.rotations import matrix_from_quat
-from tasks.simulate.control import rotation_vector
+from tasks.simulate.control import rotation_vector, tick_matrix
 
 BLEND_START_RAD = 0.1
 BLEND_FULL_RAD = 0.3
@@ -46,7 +45,7 @@ class AxisTracker:
     @cached_property
     def start_rotation_t(self) -> FloatArray:
         """(3, 3) transpose of the palm's world rotation when the primitive began."""
-        return matrix_from_quat(self.q0).T
+        return tick_matrix(self.q0).T
 
     def corrected(self, p: FloatArray, q: FloatArray) -> Primitive:
         """The primitive with its axis blended towards the one the palm's motion from (p0, q0) to (``p``, ``q``)
@@ -59,7 +58,7 @@ class AxisTracker:
         assert self.prim.pos is not None
         d = np.asarray(self.prim.dir, dtype=np.float64)
         d /= np.linalg.norm(d)
-        rot = matrix_from_quat(q) @ self.start_rotation_t
+        rot = tick_matrix(q) @ self.start_rotation_t
         rv = rotation_vector(rot)
         angle = float(np.linalg.norm(rv))
         if angle < BLEND_START_RAD:
