@@ -2,9 +2,10 @@
 
 The demonstrator's wrist tracker pose (world frame, metres, quaternion [x, y, z, w]) is turned into a seed palm
 pose through the sensor-to-palm offset; the planner (``planner.py``) searches Barrett eigengrasp amplitudes and
-a palm pose near it and returns a force-closure grasp near the demonstration: of the closest, the first that
-holds the part under the planner's hold check on its own object model (``hold_check``), else the one that lasted
-longest. ``Grasp.wrist_*`` is the pose of the hand base (palm) frame
+a palm pose near it and returns a force-closure grasp near the demonstration: of the settled wraps
+(``settle.settled_wraps``) and then the closest, the first that holds the part under the planner's hold check on
+its own object model (``hold_check``; the mount the part stands on, ``mount.py``, an obstacle but not the free
+body), else the one that lasted longest. ``Grasp.wrist_*`` is the pose of the hand base (palm) frame
 of ``barrett.py`` in the world, +z the approach direction; ``Grasp.eigengrasps`` (a1, a2) is the posture the hand
 closes towards: execute by opening the hand at spread 1.13 + a1 (fingers ``barrett.OPEN_FINGER_RAD``), moving the
 palm along +z to the wrist pose and closing the fingers towards a2 (``barrett.CLOSE_AMPLITUDE``: fully) until they
@@ -254,7 +255,8 @@ class _ShakeBudget:
 
 
 def redecomposed(model: ObjectModel, rng: np.random.Generator) -> ObjectModel:
-    """The model with its convex pieces drawn anew (k-means from ``rng``); a primitive model as it is. Which
+    """The model with its convex pieces drawn anew (``ObjectModel.with_pieces``: k-means from ``rng``, the part's
+    and the mount's apart); a primitive model as it is. Which
     grasps close into force closure on a scan depends on how its pieces fall (the door's lever: near force
     closures with some draws, none with others)."""
     return model.with_pieces(rng)
@@ -270,7 +272,8 @@ def plan_on_model(
     shake_checks: int = SHAKE_CHECKS,
 ) -> GraspCandidate:
     """Best candidate on a built model from a palm seed: the first that holds under ``hold_check`` of the
-    force-closure grasps near the demonstration in order of closeness (up to ``shake_checks`` a round,
+    first round's settled wraps (``settle.settled_wraps``), then the force-closure grasps near the demonstration
+    in order of closeness (up to ``shake_checks`` a round,
     ``SHAKE_BUDGET`` and ``CHECK_BUDGET_S`` in all; while none holds and a whole check still fits,
     ``ROUNDS`` annealing rounds then ``REDRAWS`` rounds of the demonstrated approach's poses, each after the
     first on the model's pieces drawn anew, ``redecomposed``). When none holds: the checked one that lasted
@@ -334,7 +337,8 @@ def plan_grasp(
     params: PlannerParams | None = None,
 ) -> Grasp:
     """Plan a Barrett grasp on ``object_points`` (n, 3) (world, metres) near a seed **palm** pose (the hand base
-    frame, world; +z approach). ``quality["force_closure"]`` is false only when no force-closure grasp was found."""
+    frame, world; +z approach); the mount behind the part is looked for along that approach.
+    ``quality["force_closure"]`` is false only when no force-closure grasp was found."""
     pos, quat = _check_seed(seed_position, seed_quat_xyzw)
     approach = Rotation.from_quat(quat).as_matrix()[:, 2]
     model = build_object_model(object_points, rng, viewpoint=pos, approach=approach)
