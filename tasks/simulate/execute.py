@@ -73,7 +73,8 @@ __all__ = ["GraspMode", "SceneSetup", "execute", "scene_joints"]
 MAX_PATH_FACTOR = 1.6
 """A primitive gets at most 1.6x the control ticks of its planned waypoints (a part lagging a compliant hand)."""
 SETTLED_SPEED = 0.02
-"""After a primitive, the arm holds until the driven joint is slower than this (rad/s or m/s) ..."""
+"""After a primitive, the arm holds until the driven joint is slower than this (rad/s or m/s; its mean speed over
+a control tick, from its displacement) ..."""
 PREGRASP_BACK_M = 0.10
 """Pre-grasp palm pose: 10 cm back along the approach direction."""
 APPROACH_SETTLE_TICKS = 20
@@ -217,10 +218,9 @@ def _execute_primitive(
             break
     run.hold()
     for _ in range(int(SETTLE_MAX_S / (STEPS_PER_WAYPOINT * TIME_STEP_S))):
-        run.step(STEPS_PER_WAYPOINT)
-        run.check_contact()
-        _, vel = run.joint_value(joint.index)
-        if abs(vel) < SETTLED_SPEED:
+        speed = run.mean_speeds([joint.index], STEPS_PER_WAYPOINT)[joint.index]  # displacement, not pybullet's
+        run.check_contact()  # velocity, which under the palm constraint jitters while the joint stands still
+        if speed < SETTLED_SPEED:
             break
     run.frame(f"primitive-{index}")
     checks = run.contact_checks - checks0
