@@ -292,7 +292,7 @@ def build_object_model(
             msg = f"normals: expected shape {pts.shape}, got {nrm.shape}"
             raise GraspError(msg)
     if approach is not None and viewpoint is not None and primitive is None:
-        from tasks.grasp.mount import find_mount  # noqa: PLC0415 - open3d, only when a mount is looked for
+        from tasks.grasp.mount import find_mount  # noqa: PLC0415 - scikit-learn, only when a mount is looked for
 
         mount = find_mount(pts, viewpoint, approach)
         if mount.any() and int((~mount).sum()) >= MIN_POINTS:

@@ -97,11 +97,11 @@ def settled_wraps(  # noqa: PLR0917 -- candidates, model, seed pose, limits
     """Wraps among grasps without a static force closure: of the ``candidates`` on or along the demonstrated
     approach (``near`` or ``reach``) within ``max_angle_rad`` of the demonstrated palm, the ``count`` closest are
     settled; those that settle into a force closure with the palm on the part, the part pulled in at most
-    ``MAX_SHIFT_M``, their settled palm within
-    ``max_lateral_m`` of the demonstrated approach (world, m) and ``max_angle_rad`` of the demonstrated palm
-    (rotation ``seed_rot`` (3, 3)), come back as near candidates at their settled palm pose with the settled
-    qualities (friction coefficient ``mu``)."""
+    ``MAX_SHIFT_M``, their settled palm within ``max_lateral_m`` of the demonstrated approach (world, m) and
+    ``max_angle_rad`` of the demonstrated palm (rotation ``seed_rot`` (3, 3)), come back as near candidates at
+    their settled palm pose with the settled qualities (friction coefficient ``mu``)."""
     approach = seed_rot[:, 2]
+    seed_inv = Rotation.from_matrix(seed_rot).inv()
     pool = sorted(
         (c for c in candidates if (c.near or c.reach) and not c.quality.force_closure and c.angle_rad <= max_angle_rad),
         key=lambda c: c.closeness,
@@ -111,7 +111,7 @@ def settled_wraps(  # noqa: PLR0917 -- candidates, model, seed pose, limits
         done = settle(model, cand.position, cand.quat_xyzw, float(cand.closed[0]), mu)
         rel = done.position - np.asarray(seed_position, dtype=np.float64)
         lateral = float(np.linalg.norm(rel - float(rel @ approach) * approach))
-        angle = float((Rotation.from_matrix(seed_rot).inv() * Rotation.from_quat(done.quat_xyzw)).magnitude())
+        angle = float((seed_inv * Rotation.from_quat(done.quat_xyzw)).magnitude())
         if not (done.quality.force_closure and done.palm_contact) or done.shift_m > MAX_SHIFT_M:
             continue
         if lateral > max_lateral_m or angle > max_angle_rad:

@@ -177,12 +177,10 @@ def grip(  # noqa: PLR0917 -- pybullet client, model, palm pose, posture, settin
         max_torque_nm=prm.squeeze_torque_nm,
         distal=target_dist,
     )
-    pb.setJointMotorControl2(
-        hand, 0, pb.POSITION_CONTROL, targetPosition=float(closed[0]), force=20.0, physicsClientId=client
-    )
-    pb.setJointMotorControl2(
-        hand, 3, pb.POSITION_CONTROL, targetPosition=float(closed[0]), force=20.0, physicsClientId=client
-    )
+    for joint in barrett.SPREAD_JOINTS:
+        pb.setJointMotorControl2(
+            hand, joint, pb.POSITION_CONTROL, targetPosition=float(closed[0]), force=20.0, physicsClientId=client
+        )
     anchor = pb.createConstraint(
         hand,
         -1,
