@@ -70,7 +70,9 @@ DERIVED = {
 
 
 MISSING = (
-    None if LOGS.is_dir() else f"{LOGS}: the shared real logs are needed here (clone pbd beside ../shared, as CI does)"
+    None
+    if LOGS.is_dir()
+    else f"{LOGS}: the shared real logs are needed here (clone pbd beside ../shared, or set PBD_SHARED)"
 )
 """Why the shared logs cannot be read, if they cannot: ``test_shared_logs_are_present`` fails with it, and the rest
 of the suite still runs (a collection error would stop every test)."""
