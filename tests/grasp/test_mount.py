@@ -114,3 +114,11 @@ def test_a_box_face_or_a_cylinder_the_palm_meets_first_is_no_mount() -> None:
     assert not find_mount(cylinder, above, np.array([0.0, 0.0, -1.0])).any()  # its far side is a strip
     side = CENTRE - np.array([0.0, 0.1, 0.0])
     assert not find_mount(box, side, np.array([0.0, 1.0, 0.0])).any()  # the far face is smaller than the hand
+
+
+def test_degenerate_clouds_have_no_mount() -> None:
+    rng = np.random.default_rng(4)
+    above, down = np.array([0.0, 0.0, 0.2]), np.array([0.0, 0.0, -1.0])
+    flat = np.c_[rng.uniform(-0.1, 0.1, (200, 2)), np.zeros(200)]  # all one plane: nothing stands in front of it
+    for cloud in (rng.uniform(-0.05, 0.05, (30, 3)), flat, np.zeros((40, 3))):
+        assert not find_mount(cloud, above, down).any()
