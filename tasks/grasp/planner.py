@@ -54,6 +54,10 @@ the demonstrated palm; 2 mm lost it on the sample recordings, seeded 2 mm off): 
 (``closing.close_fingers`` stops a finger only when blocked)."""
 BACK_OFF_M = 0.02
 """A pre-grasp found in collision in pybullet is moved back along its approach axis by up to 20 mm."""
+LIMIT_TOL_M = 1e-6
+"""Offsets within 1 µm of a neighbourhood limit count as inside it: the demonstrated approach's poses 20 mm behind
+the demonstrated palm (``LINE_POSES``) lie on the 20 mm limit, and rounding put some outside it (a door lever's
+only grasp that held)."""
 
 
 @dataclass(frozen=True)
@@ -220,7 +224,7 @@ def is_near(offset: DemoOffset, params: PlannerParams) -> bool:
     """Whether a grasp lies in the demonstration's neighbourhood (lateral offset, angle and advance along the
     demonstrated approach within the limits)."""
     return (
-        offset.lateral_m <= params.near_position_m
+        offset.lateral_m <= params.near_position_m + LIMIT_TOL_M
         and offset.angle_rad <= params.near_angle_rad
         and offset.advance_m <= params.near_advance_m
     )
@@ -229,7 +233,7 @@ def is_near(offset: DemoOffset, params: PlannerParams) -> bool:
 def is_reach(offset: DemoOffset, params: PlannerParams) -> bool:
     """Whether a grasp lies off the demonstrated approach by at most the neighbourhood's offset and angle, however
     far along it (the approach to contact bounds the advance: the palm stops at the object)."""
-    return offset.lateral_m <= params.near_position_m and offset.angle_rad <= params.near_angle_rad
+    return offset.lateral_m <= params.near_position_m + LIMIT_TOL_M and offset.angle_rad <= params.near_angle_rad
 
 
 def _free_pregrasp(  # noqa: PLR0917 -- private helper

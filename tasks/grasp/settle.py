@@ -23,7 +23,7 @@ from scipy.spatial.transform import Rotation
 from tasks.arrays import FloatArray, Vector3
 from tasks.grasp import closing
 from tasks.grasp.object_model import ObjectModel
-from tasks.grasp.planner import GraspCandidate
+from tasks.grasp.planner import LIMIT_TOL_M, GraspCandidate
 from tasks.grasp.quality import DEFAULT_MU, GraspQuality, grasp_quality
 from tasks.grasp.shake import TIME_STEP_S, ShakeParams, grip
 
@@ -83,6 +83,14 @@ def settle(model: ObjectModel, position: Vector3, quat_xyzw: FloatArray, spread_
     )
 
 
+def squeezed_quality(
+    model: ObjectModel, position: Vector3, quat_xyzw: FloatArray, spread_rad: float, mu: float
+) -> GraspQuality:
+    """The quality (friction coefficient ``mu``) of a grasp closed at the palm pose (world, m, [x, y, z, w]) with
+    spread ``spread_rad`` once squeezed and settled (``settle``): of its contacts, not of the static closing."""
+    return settle(model, position, quat_xyzw, spread_rad, mu).quality
+
+
 def settled_wraps(  # noqa: PLR0917 -- candidates, model, seed pose, limits
     candidates: list[GraspCandidate],
     model: ObjectModel,
@@ -114,7 +122,7 @@ def settled_wraps(  # noqa: PLR0917 -- candidates, model, seed pose, limits
         angle = float((seed_inv * Rotation.from_quat(done.quat_xyzw)).magnitude())
         if not (done.quality.force_closure and done.palm_contact) or done.shift_m > MAX_SHIFT_M:
             continue
-        if lateral > max_lateral_m or angle > max_angle_rad:
+        if lateral > max_lateral_m + LIMIT_TOL_M or angle > max_angle_rad:
             continue
         out.append(
             dataclasses.replace(
