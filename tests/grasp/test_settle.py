@@ -4,49 +4,22 @@ closing misses."""
 from __future__ import annotations
 
 import numpy as np
-import pybullet as pb
 import pytest
 from scipy.spatial.transform import Rotation
 
-from tasks.grasp import barrett
-from tasks.grasp.object_model import ObjectModel, build_object_model, load_object, sample_cylinder_surface
-from tasks.grasp.planner import GraspCandidate, PlannerParams, evaluate_pose
+from tasks.grasp.object_model import ObjectModel
 from tasks.grasp.settle import MAX_SHIFT_M, settle, settled_wraps
-
-CENTRE = np.array([0.5, 0.0, 0.3])
-RADIUS = 0.03
-PALM_DOWN = Rotation.from_euler("x", 180, degrees=True)
-"""The palm's +z (approach) along world -z, its x axis along the cylinder."""
+from tests.grasp.lying_cylinder import CENTRE, PALM_DOWN, RADIUS, closed_above, lying_cylinder
 
 
 @pytest.fixture(scope="module")
 def cylinder() -> ObjectModel:
-    """A cylinder of 30 mm radius, 160 mm long, lying along world x at CENTRE."""
-    rng = np.random.default_rng(0)
-    pts, _ = sample_cylinder_surface(RADIUS, 0.08, 3000, rng)
-    lying = Rotation.from_euler("y", 90, degrees=True).apply(pts) + CENTRE
-    return build_object_model(lying, rng, viewpoint=CENTRE + np.array([0.0, 0.0, 0.2]))
-
-
-def _candidate(model: ObjectModel, gap_m: float) -> GraspCandidate:
-    """The hand closed kinematically (spread 0, no approach) with the palm ``gap_m`` above the cylinder."""
-    client = pb.connect(pb.DIRECT)
-    try:
-        obj = load_object(client, model)
-        hand = barrett.load_hand(client)
-        pos = CENTRE + np.array([0.0, 0.0, RADIUS + gap_m])
-        out = evaluate_pose(
-            client, hand, obj, model, PALM_DOWN.as_matrix(), pos, 0.0, PlannerParams(approach_max_m=0.0)
-        )
-    finally:
-        pb.disconnect(client)
-    assert out is not None
-    final_pos, _, closed, quality = out
-    return GraspCandidate(np.zeros(5), final_pos, PALM_DOWN.as_quat(), closed, quality, 0.0, gap_m, 0.0, 0.0, near=True)
+    """A cylinder of 30 mm radius, 160 mm long, lying along world x (``lying_cylinder``)."""
+    return lying_cylinder()
 
 
 def test_the_squeeze_pulls_the_part_into_the_palm(cylinder: ObjectModel) -> None:
-    cand = _candidate(cylinder, 0.01)
+    cand = closed_above(cylinder, 0.01)
     assert not cand.quality.force_closure  # statically the fingertips only push the cylinder away
     done = settle(cylinder, cand.position, cand.quat_xyzw, 0.0, 0.5)
     assert done.quality.force_closure
@@ -61,7 +34,7 @@ def test_the_squeeze_pulls_the_part_into_the_palm(cylinder: ObjectModel) -> None
 
 def test_wraps_come_back_near_and_far_pulls_do_not(cylinder: ObjectModel) -> None:
     seed_rot = PALM_DOWN.as_matrix()
-    near, far = _candidate(cylinder, 0.01), _candidate(cylinder, 0.03)
+    near, far = closed_above(cylinder, 0.01), closed_above(cylinder, 0.03)
     wraps = settled_wraps([near], cylinder, near.position, seed_rot, 0.02, np.radians(15.0))
     assert len(wraps) == 1
     assert wraps[0].quality.force_closure and wraps[0].near

@@ -7,68 +7,35 @@ import dataclasses
 import math
 
 import numpy as np
-import pybullet as pb
 import pytest
 from scipy.spatial.transform import Rotation
 
-from tasks.grasp import barrett
 from tasks.grasp.api import grasp_from_candidate, hold_check, part_near, plan_on_model, squeezed
-from tasks.grasp.object_model import ObjectModel, build_object_model, load_object, sample_cylinder_surface
-from tasks.grasp.planner import (
-    ApproachSpace,
-    GraspCandidate,
-    PlannerParams,
-    demo_offset,
-    evaluate_pose,
-    is_near,
-    is_reach,
-)
+from tasks.grasp.object_model import ObjectModel, build_object_model
+from tasks.grasp.planner import ApproachSpace, PlannerParams, demo_offset, is_near, is_reach
 from tasks.grasp.shake import shake_test
 from tasks.scenes.catalog import build_scene
 from tasks.scenes.kinematics import truth_descriptor
 from tasks.simulate.api import simulate_descriptor
 from tasks.synth.record import OBJECT_MODEL_POINTS
 from tasks.synth.scan import scan_object_model
-
-CENTRE = np.array([0.5, 0.0, 0.3])
-RADIUS = 0.03
-PALM_DOWN = Rotation.from_euler("x", 180, degrees=True)
+from tests.grasp.lying_cylinder import closed_above, lying_cylinder
 
 
 @pytest.fixture(scope="module")
 def cylinder() -> ObjectModel:
-    """A cylinder of 30 mm radius, 160 mm long, lying along world x at CENTRE."""
-    rng = np.random.default_rng(0)
-    pts, _ = sample_cylinder_surface(RADIUS, 0.08, 3000, rng)
-    lying = Rotation.from_euler("y", 90, degrees=True).apply(pts) + CENTRE
-    return build_object_model(lying, rng, viewpoint=CENTRE + np.array([0.0, 0.0, 0.2]))
-
-
-def _closed_above(model: ObjectModel, gap_m: float) -> GraspCandidate:
-    """The hand closed kinematically (spread 0, no approach) with the palm ``gap_m`` above the cylinder."""
-    client = pb.connect(pb.DIRECT)
-    try:
-        obj = load_object(client, model)
-        hand = barrett.load_hand(client)
-        pos = CENTRE + np.array([0.0, 0.0, RADIUS + gap_m])
-        out = evaluate_pose(
-            client, hand, obj, model, PALM_DOWN.as_matrix(), pos, 0.0, PlannerParams(approach_max_m=0.0)
-        )
-    finally:
-        pb.disconnect(client)
-    assert out is not None
-    final_pos, _, closed, quality = out
-    return GraspCandidate(np.zeros(5), final_pos, PALM_DOWN.as_quat(), closed, quality, 0.0, 0.0, 0.0, 0.0, near=True)
+    """A cylinder of 30 mm radius, 160 mm long, lying along world x (``lying_cylinder``)."""
+    return lying_cylinder()
 
 
 def test_squeezing_shows_the_closure_the_static_closing_misses(cylinder: ObjectModel) -> None:
-    cand = _closed_above(cylinder, 0.01)
+    cand = closed_above(cylinder, 0.01)
     assert not cand.quality.force_closure
     held = squeezed((cand, cylinder), 0.5)
     assert held is not None
     assert held.quality.force_closure and held.quality.epsilon > 0.05
     np.testing.assert_array_equal(held.position, cand.position)  # the pose the hold check tested, unchanged
-    empty = _closed_above(cylinder, 0.15)  # the fingers close on nothing
+    empty = closed_above(cylinder, 0.15)  # the fingers close on nothing
     assert squeezed((empty, cylinder), 0.5) is None
 
 
