@@ -34,8 +34,6 @@ from tasks.grasp import barrett, closing
 from tasks.grasp.object_model import MIN_POINTS, ObjectModel, convex_parts, load_object
 
 TIME_STEP_S = 1.0 / 240.0
-FINGER_LINKS = ((1, 2), (4, 5), (7, 8))
-"""The hand's proximal and distal link of each finger (``barrett``)."""
 SHAKE_DIRECTIONS: FloatArray = np.array(
     [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 1.0, 0.0], [0.0, 1.0, 1.0]]
 )
@@ -157,7 +155,7 @@ def grip(  # noqa: PLR0917 -- pybullet client, model, palm pose, posture, settin
         if mounted or prm.part_radius_m is not None:
             contacts = closing.contacts_of(client, hand, obj)
             on_mount = model.is_mount_piece(contacts.pieces)
-            for finger, links in enumerate(FINGER_LINKS):
+            for finger, links in enumerate(barrett.FINGER_LINKS):
                 blocked[finger] = bool(np.any(on_mount & np.isin(contacts.links, links)))
             if prm.part_radius_m is not None:
                 free = _grasped_part(part_only, contacts.positions[~on_mount], prm.part_radius_m)
