@@ -38,7 +38,7 @@ from tasks.grasp.seed import (
     stillest_time_ns,
     wrist_pose_at,
 )
-from tasks.grasp.settle import settled_wraps, squeezed_quality
+from tasks.grasp.settle import settle, settled_wraps
 from tasks.grasp.shake import QUICK_SHAKE, Motion, ShakeParams, shake_test
 from tasks.recording.load import PoseTrack
 
@@ -186,10 +186,10 @@ class _ShakeBudget:
 
 def squeezed(tried: Tried, mu: float) -> GraspCandidate | None:
     """A grasp without a static force closure that held under the hold check, with the qualities of its contacts
-    once the fingers have squeezed it (``settle.squeezed_quality``, friction ``mu``), or None when even then it
+    once the fingers have squeezed it (``settle.settle``, friction ``mu``), or None when even then it
     shows no force closure."""
     cand, model = tried
-    quality = squeezed_quality(model, cand.position, cand.quat_xyzw, float(cand.closed[0]), mu)
+    quality = settle(model, cand.position, cand.quat_xyzw, float(cand.closed[0]), mu).quality
     return dataclasses.replace(cand, quality=quality) if quality.force_closure else None
 
 
@@ -245,8 +245,9 @@ def plan_on_model(
         closure += new
         held = budget.first_that_holds([t for t in new if t[0].angle_rad <= CHECK_MAX_ANGLE_RAD], shake_checks)
         if held is None and k == 0 and variant.mount is not None:  # a handle or lever the static closing pushes off
-            dynamic = [t for t in found if t[0].near and rank_tier(t[0].quality) != 0]
-            dynamic = [t for t in dynamic if t[0].angle_rad <= CHECK_MAX_ANGLE_RAD]
+            dynamic = [
+                t for t in found if t[0].near and rank_tier(t[0].quality) != 0 and t[0].angle_rad <= CHECK_MAX_ANGLE_RAD
+            ]
             extra = _ShakeBudget(DYNAMIC_CHECKS)  # budget of its own: most fail within 0.1 s
             held = extra.first_that_holds(dynamic, DYNAMIC_CHECKS, accept=lambda t: squeezed(t, prm.mu))
         if held is not None:

@@ -83,14 +83,6 @@ def settle(model: ObjectModel, position: Vector3, quat_xyzw: FloatArray, spread_
     )
 
 
-def squeezed_quality(
-    model: ObjectModel, position: Vector3, quat_xyzw: FloatArray, spread_rad: float, mu: float
-) -> GraspQuality:
-    """The quality (friction coefficient ``mu``) of a grasp closed at the palm pose (world, m, [x, y, z, w]) with
-    spread ``spread_rad`` once squeezed and settled (``settle``): of its contacts, not of the static closing."""
-    return settle(model, position, quat_xyzw, spread_rad, mu).quality
-
-
 def settled_wraps(  # noqa: PLR0917 -- candidates, model, seed pose, limits
     candidates: list[GraspCandidate],
     model: ObjectModel,
