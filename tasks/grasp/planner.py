@@ -15,6 +15,7 @@ the rest, force closure first, are ranked by closeness to the demonstration (``c
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 from dataclasses import dataclass, field
@@ -325,7 +326,23 @@ def search(
     for a1, (back, roll) in itertools.product(LINE_SPREADS, LINE_POSES):
         x = np.array([a1, 0.0, space.pivot_m + back, roll, 0.0])
         picks.insert(0, (x, energy(x)))
-    focus = seed_pos + seed_rot[:, 2] * space.pivot_m
+    out = execute_states(model, space, picks, prm)
+    out.sort(key=lambda c: (not c.near, rank_tier(c.quality), c.closeness))
+    return _distinct(out)
+
+
+def execute_states(
+    model: ObjectModel,
+    space: ApproachSpace,
+    picks: list[tuple[FloatArray, float]],
+    params: PlannerParams,
+    approach_max_m: float | None = None,
+) -> list[GraspCandidate]:
+    """Execute each (state, energy) of ``picks`` in pybullet (``evaluate_pose``; the approach to contact up to
+    ``approach_max_m`` m, ``params.approach_max_m`` when None) and return the candidates in the same order (those
+    still in collision left out), with their offsets from the demonstration."""
+    run_prm = params if approach_max_m is None else dataclasses.replace(params, approach_max_m=approach_max_m)
+    focus = space.seed_pos + space.seed_rot[:, 2] * space.pivot_m
     client = pb.connect(pb.DIRECT)
     try:
         obj = load_object(client, model)
@@ -334,11 +351,11 @@ def search(
         for x, e in picks:
             rot, pos = space.pose(x)
             spread = float(barrett.dofs_from_eigengrasps(float(x[0]), 0.0)[0])
-            result = evaluate_pose(client, hand, obj, model, rot, pos, spread, prm, focus)
+            result = evaluate_pose(client, hand, obj, model, rot, pos, spread, run_prm, focus)
             if result is None:
                 continue
             final_pos, _, closed, quality = result
-            offset = demo_offset(rot, final_pos, space, prm)
+            offset = demo_offset(rot, final_pos, space, params)
             out.append(
                 GraspCandidate(
                     x.copy(),
@@ -347,17 +364,16 @@ def search(
                     closed,
                     quality,
                     e,
-                    closeness(offset, prm),
+                    closeness(offset, params),
                     offset.lateral_m,
                     offset.angle_rad,
-                    is_near(offset, prm),
-                    is_reach(offset, prm),
+                    is_near(offset, params),
+                    is_reach(offset, params),
                 )
             )
     finally:
         pb.disconnect(client)
-    out.sort(key=lambda c: (not c.near, rank_tier(c.quality), c.closeness))
-    return _distinct(out)
+    return out
 
 
 def _distinct(candidates: list[GraspCandidate]) -> list[GraspCandidate]:

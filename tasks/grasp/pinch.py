@@ -1,0 +1,58 @@
+"""Fingertip pinches held back on the demonstrated approach: the planner's last resort when no grasp near the
+demonstration holds.
+
+The Barrett fingers are 126 mm long on knuckles 50 mm either side of the palm centre: the fingertips close at
+80-100 mm in front of the palm, and a finger curled round a bar reaches 45 mm or more in front of it. On a handle
+standing 18-30 mm in front of its plate, fingers that wrap the bar from a palm near it therefore meet the plate,
+and a finger the mount stops cannot squeeze (``shake.grip``): on two of the benchmark's handles none of 720 palm
+poses on the bar's axis, touching it to 30 mm before it, held. Held back on the demonstrated approach, 60-100 mm
+from where it meets the part, the open fingertips close on the bar's sides, clear of the plate, and pinch it: on
+all five of the benchmark's handles that no near grasp held, one such pinch held under the planner's hold check
+and under the benchmark's longer test on an independent model.
+
+The palm keeps the demonstrated orientation and lies on the demonstrated approach (the approach distance d of
+GraspIt!'s search space, whose range reaches 200 mm); it is not moved on to contact, since the fingertips, not the
+palm, are to touch. The fingers close from the open hand (``barrett.OPEN_FINGER_RAD``) as in execution.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from tasks.arrays import FloatArray, Vector3
+from tasks.grasp import barrett
+from tasks.grasp.object_model import ObjectModel
+from tasks.grasp.planner import ApproachSpace, GraspCandidate, PlannerParams, execute_states, pivot_distance
+
+PINCH_DISTANCES_M = (0.06, 0.07, 0.08, 0.09, 0.10)
+"""Palm distances (m) from where the demonstrated approach meets the part: the fingertips of the open hand close
+80-100 mm in front of the palm, so a bar 20-30 mm across is pinched at its sides from 70-90 mm."""
+PINCH_SPREADS_RAD = (0.0, math.pi / 2)
+"""Spreads (rad), in order of preference: fingers 1 and 2 opposite the thumb (three fingertips across the bar, two
+against one, which resist its turning about the pinch), then face to face. On a 20 mm bar 30 mm before its plate
+the spread-0 pinch from 80 mm held on three models sampled anew, the one at π/2 from 70 mm that the planner's
+check passed held on one."""
+
+
+def pinch_candidates(
+    model: ObjectModel, seed_rot: FloatArray, seed_pos: Vector3, params: PlannerParams
+) -> list[GraspCandidate]:
+    """The fingertip pinches of ``model`` from palms on the demonstrated approach (seed palm rotation (3, 3) and
+    position (3,) m, world) at ``PINCH_DISTANCES_M`` from the part with ``PINCH_SPREADS_RAD``, executed in
+    pybullet without the approach to contact; in the order of ``PINCH_SPREADS_RAD``, each nearest the
+    demonstration first."""
+    space = ApproachSpace(seed_rot, seed_pos, pivot_distance(model, seed_rot, seed_pos, params.max_pivot_m))
+    picks = [
+        (np.array([barrett.spread_amplitude(spread), 0.0, distance, 0.0, 0.0]), 0.0)
+        for distance in PINCH_DISTANCES_M
+        for spread in PINCH_SPREADS_RAD
+    ]
+    found = execute_states(model, space, picks, params, approach_max_m=0.0)
+    return sorted(found, key=lambda c: (_spread_rank(float(c.closed[0])), c.closeness))
+
+
+def _spread_rank(spread_rad: float) -> int:
+    """Index of the ``PINCH_SPREADS_RAD`` entry nearest ``spread_rad``."""
+    return int(np.argmin([abs(spread_rad - s) for s in PINCH_SPREADS_RAD]))

@@ -1,0 +1,94 @@
+"""Fingertip pinches held back on the demonstrated approach (``pinch.py``): on a bar handle standing 30 mm in front
+of its plate, where fingers wrapping the bar from near the demonstrated palm meet the plate, the planner falls back
+to a pinch that holds the bar under a shake on an independently sampled model."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from tasks.arrays import Points
+from tasks.grasp.api import grasp_from_candidate, plan_on_model
+from tasks.grasp.object_model import (
+    ObjectModel,
+    build_object_model,
+    labelled_model,
+    sample_box_surface,
+    sample_cylinder_surface,
+)
+from tasks.grasp.pinch import PINCH_DISTANCES_M, pinch_candidates
+from tasks.grasp.planner import PlannerParams
+from tasks.grasp.shake import Motion, ShakeParams, shake_test
+
+BAR_CENTRE = np.array([0.5, 0.0, 0.5])
+BAR_RADIUS_M = 0.010
+STANDOFF_M = 0.040
+"""A 20 mm bar, 113 mm long along world x, its axis 40 mm in front (-y) of a 10 mm plate: a 30 mm gap."""
+PALM_ROT = Rotation.from_matrix(np.column_stack([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]]))
+"""The demonstrated palm: x along the bar, approach (+z) along world +y towards the plate."""
+SEED_POS = BAR_CENTRE - np.array([0.0, BAR_RADIUS_M + 0.045, 0.0])
+"""The demonstrated palm 45 mm in front of the bar."""
+
+
+def handle_points(rng: np.random.Generator) -> tuple[Points, Points]:
+    """Surface points (world m) of the bar with its two posts, and of the plate."""
+    along = Rotation.from_euler("y", 90, degrees=True)
+    bar, _ = sample_cylinder_surface(BAR_RADIUS_M, 0.0565, 1500, rng)
+    post_rot = Rotation.from_euler("x", 90, degrees=True)
+    posts = [
+        post_rot.apply(sample_cylinder_surface(0.006, STANDOFF_M / 2, 200, rng)[0])
+        + BAR_CENTRE
+        + np.array([s * 0.0465, STANDOFF_M / 2, 0.0])
+        for s in (-1.0, 1.0)
+    ]
+    plate, _ = sample_box_surface(np.array([0.0865, 0.005, 0.03]), 1500, rng)
+    part = np.concatenate([along.apply(bar) + BAR_CENTRE, *posts])
+    return part, plate + BAR_CENTRE + np.array([0.0, STANDOFF_M + 0.005, 0.0])
+
+
+@pytest.fixture(scope="module")
+def planner_model() -> ObjectModel:
+    """The handle and plate as the learn stage models them (the mount looked for along the approach)."""
+    part, plate = handle_points(np.random.default_rng(0))
+    approach = PALM_ROT.as_matrix()[:, 2]
+    return build_object_model(
+        np.concatenate([part, plate]), np.random.default_rng(7), viewpoint=SEED_POS, approach=approach
+    )
+
+
+def test_pinches_lie_on_the_demonstrated_approach_held_back(planner_model: ObjectModel) -> None:
+    assert planner_model.mount is not None
+    seed_rot = PALM_ROT.as_matrix()
+    found = pinch_candidates(planner_model, seed_rot, SEED_POS, PlannerParams())
+    assert found
+    bar_front = BAR_CENTRE[1] - BAR_RADIUS_M
+    for cand in found:
+        assert cand.angle_rad == pytest.approx(0.0, abs=1e-9)  # the demonstrated orientation
+        assert np.linalg.norm((cand.position - BAR_CENTRE)[[0, 2]]) < 1e-6  # on the approach through the bar
+        distance = bar_front - cand.position[1]  # to the bar's front, within a sample's spacing of its surface
+        assert min(PINCH_DISTANCES_M) - 0.002 <= distance <= max(PINCH_DISTANCES_M) + 0.002
+    spreads = [round(float(c.closed[0]), 6) for c in found]
+    assert spreads == sorted(spreads)  # fingers opposite the thumb first, then face to face
+    for spread in set(spreads):
+        closeness = [c.closeness for c, s in zip(found, spreads, strict=True) if s == spread]
+        assert closeness == sorted(closeness)
+
+
+def test_thin_gap_handle_is_held_by_a_pinch(planner_model: ObjectModel) -> None:
+    """No grasp near the demonstration holds; the planned grasp is a pinch 60-100 mm from the bar, with a force
+    closure, and it holds the bar (a free body, the plate an obstacle while the fingers close) on a model
+    sampled anew, under world gravity and shakes along x, y and z at 2.5 Hz with 6 m/s² peaks, three cycles."""
+    cand = plan_on_model(planner_model, SEED_POS, PALM_ROT.as_quat(), np.random.default_rng(7))
+    grasp = grasp_from_candidate(cand)
+    assert grasp.quality["force_closure"] is True
+    palm_to_bar = (BAR_CENTRE[1] - BAR_RADIUS_M) - grasp.wrist_position[1]
+    assert min(PINCH_DISTANCES_M) - 0.002 <= palm_to_bar <= max(PINCH_DISTANCES_M) + 0.002
+    part, plate = handle_points(np.random.default_rng(1))
+    fresh = labelled_model(part, plate, np.random.default_rng(1), viewpoint=SEED_POS)
+    amplitude = 6.0 / (2.0 * math.pi * 2.5) ** 2
+    axes = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+    program = ShakeParams(motions=tuple(Motion(a, amplitude, 2.5, 3.0) for a in axes))
+    assert shake_test(fresh, grasp, program).holds
