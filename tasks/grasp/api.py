@@ -29,7 +29,7 @@ from tasks.arrays import FloatArray, Points, Vector3
 from tasks.errors import GraspError
 from tasks.grasp import barrett
 from tasks.grasp.object_model import ObjectModel, build_object_model, check_object_points, crop_points
-from tasks.grasp.pinch import pinch_candidates
+from tasks.grasp.pinch import pinch_candidates, pinch_neighbours
 from tasks.grasp.planner import GraspCandidate, PlannerParams, rank_tier, search
 from tasks.grasp.seed import (
     GRASPIT_TRACKER_OFFSET,
@@ -39,7 +39,7 @@ from tasks.grasp.seed import (
     stillest_time_ns,
     wrist_pose_at,
 )
-from tasks.grasp.settle import settle, settled_wraps
+from tasks.grasp.settle import LATE_WRAP_SETTLES, WRAP_SETTLES, settle, settled_wraps
 from tasks.grasp.shake import QUICK_SHAKE, Motion, ShakeParams, shake_test
 from tasks.recording.load import PoseTrack
 
@@ -68,6 +68,9 @@ approach (``pinch.py``), with a budget of their own; a pinch without a static fo
 one once squeezed (``squeezed``). On the benchmark's handles standing 18-30 mm in front of their plates, the
 fingers wrapping the bar from near the demonstrated palm meet the plate. On each of the five that no near grasp
 held, one of these pinches (from 70-90 mm) held under the planner's check and under the benchmark's test."""
+NEIGHBOUR_CHECKS = 8
+"""When a pinch held without a force closure: hold checks of its neighbours (``pinch.pinch_neighbours``), with a
+budget of their own."""
 SHAKE_BUDGET = 6
 """Hold checks one plan may run on near force closures (``FALLBACK_CHECKS`` more after them) ..."""
 CHECK_BUDGET_S = 20.0
@@ -162,6 +165,8 @@ class _ShakeBudget:
         self.seconds = seconds
         self.longest: GraspCandidate | None = None
         self.longest_s = -1.0
+        self.unaccepted: list[GraspCandidate] = []
+        """Candidates that held but that ``accept`` turned down, in the order checked."""
 
     def spent(self) -> bool:
         """Whether no further check may start: none left, or a check that holds (``CHECK_LENGTH_S``) would
@@ -188,6 +193,8 @@ class _ShakeBudget:
             accepted = accept(tried) if result.holds else None
             if accepted is not None:
                 return accepted
+            if result.holds:
+                self.unaccepted.append(cand)
             if result.survived_s > self.longest_s and rank_tier(cand.quality) == 0:
                 self.longest, self.longest_s = cand, result.survived_s
         return None
@@ -208,6 +215,23 @@ def redecomposed(model: ObjectModel, rng: np.random.Generator) -> ObjectModel:
     grasps close into force closure on a scan depends on how its pieces fall (the door's lever: near force
     closures with some draws, none with others)."""
     return model.with_pieces(rng)
+
+
+def _pinch(model: ObjectModel, seed_rot: FloatArray, seed_pos: Vector3, prm: PlannerParams) -> GraspCandidate | None:
+    """The first fingertip pinch (``pinch.pinch_candidates``) that holds under ``hold_check`` with a force closure,
+    static or squeezed; when one held without any, the first of its neighbours (``pinch.pinch_neighbours``) that
+    does; else None."""
+
+    def closed(tried: Tried) -> GraspCandidate | None:
+        return tried[0] if rank_tier(tried[0].quality) == 0 else squeezed(tried, prm.mu)
+
+    budget = _ShakeBudget(PINCH_CHECKS)
+    found = pinch_candidates(model, seed_rot, seed_pos, prm)
+    pinched = budget.first_that_holds([(c, model) for c in found], PINCH_CHECKS, accept=closed)
+    if pinched is not None or not budget.unaccepted:
+        return pinched
+    near = pinch_neighbours(model, seed_rot, seed_pos, prm, budget.unaccepted[0])
+    return _ShakeBudget(NEIGHBOUR_CHECKS).first_that_holds([(c, model) for c in near], NEIGHBOUR_CHECKS, accept=closed)
 
 
 def plan_on_model(
@@ -253,6 +277,20 @@ def plan_on_model(
             new = [(c, variant) for c in wraps] + new  # a palm-on-part wrap first: it held where fingertips slid
         closure += new
         held = budget.first_that_holds([t for t in new if t[0].angle_rad <= CHECK_MAX_ANGLE_RAD], shake_checks)
+        if held is None and k == 0 and not budget.spent():  # wraps from grasps further from the demonstration
+            late = settled_wraps(
+                [c for c, _ in found],
+                variant,
+                pos,
+                seed_rot,
+                prm.near_position_m,
+                CHECK_MAX_ANGLE_RAD,
+                count=LATE_WRAP_SETTLES,
+                skip=WRAP_SETTLES,
+                mu=prm.mu,
+            )
+            closure += [(c, variant) for c in late]
+            held = budget.first_that_holds([(c, variant) for c in late], shake_checks)
         if held is None and k == 0 and variant.mount is not None:  # a handle or lever the static closing pushes off
             dynamic = [
                 t for t in found if t[0].near and rank_tier(t[0].quality) != 0 and t[0].angle_rad <= CHECK_MAX_ANGLE_RAD
@@ -264,11 +302,7 @@ def plan_on_model(
         if closure and budget.spent():
             break
     if model.mount is not None:  # a handle or lever whose mount may stop the fingers wrapping it
-        pinched = _ShakeBudget(PINCH_CHECKS).first_that_holds(
-            [(c, model) for c in pinch_candidates(model, seed_rot, pos, prm)],
-            PINCH_CHECKS,
-            accept=lambda t: t[0] if rank_tier(t[0].quality) == 0 else squeezed(t, prm.mu),
-        )
+        pinched = _pinch(model, seed_rot, pos, prm)
         if pinched is not None:
             return pinched
     if not tried:

@@ -17,6 +17,7 @@ palm, are to touch. The fingers close from the open hand (``barrett.OPEN_FINGER_
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -51,6 +52,37 @@ def pinch_candidates(
     ]
     found = execute_states(model, space, picks, params, approach_max_m=0.0)
     return sorted(found, key=lambda c: (_spread_rank(float(c.closed[0])), c.closeness))
+
+
+NEIGHBOUR_STEP_M = 0.005
+NEIGHBOUR_ROLL_RAD = math.radians(15.0)
+"""Steps of ``pinch_neighbours``: the palm 5 mm nearer or farther on the approach, rolled 15° either way about it
+(the demonstrated approach's rolls, ``planner.LINE_POSES``)."""
+
+
+def pinch_neighbours(
+    model: ObjectModel, seed_rot: FloatArray, seed_pos: Vector3, params: PlannerParams, held: GraspCandidate
+) -> list[GraspCandidate]:
+    """The pinches next to ``held`` (a pinch that held the part but showed no force closure, even squeezed):
+    its spread with the palm rolled ``NEIGHBOUR_ROLL_RAD`` either way, moved ``NEIGHBOUR_STEP_M`` along the
+    approach, or both (rad, m; the seed palm rotation (3, 3) and position (3,) m, world, as in
+    ``pinch_candidates``), in that order. Two fingertips against the thumb on a bar touch it on two lines; rolled
+    or moved, their contacts fall apart along it and may close (the benchmark's handle r13 l128: the spread-0
+    pinch from 80 mm held with no force closure, the one from 75 mm rolled -15° held with one)."""
+    space = ApproachSpace(seed_rot, seed_pos, pivot_distance(model, seed_rot, seed_pos, params.max_pivot_m))
+    steps = [
+        (move, roll)
+        for move, roll in itertools.product((0.0, -NEIGHBOUR_STEP_M, NEIGHBOUR_STEP_M), (0.0, -1.0, 1.0))
+        if move or roll
+    ]
+    steps.sort(key=lambda s: (s[0] != 0.0) + 2 * (s[1] != 0.0 and s[0] != 0.0))
+    picks = []
+    for move, roll in steps:
+        x = held.state.copy()
+        x[2] += move
+        x[3] += roll * NEIGHBOUR_ROLL_RAD
+        picks.append((x, 0.0))
+    return execute_states(model, space, picks, params, approach_max_m=0.0)
 
 
 def _spread_rank(spread_rad: float) -> int:

@@ -19,7 +19,13 @@ from tasks.grasp.object_model import (
     sample_box_surface,
     sample_cylinder_surface,
 )
-from tasks.grasp.pinch import PINCH_DISTANCES_M, pinch_candidates
+from tasks.grasp.pinch import (
+    NEIGHBOUR_ROLL_RAD,
+    NEIGHBOUR_STEP_M,
+    PINCH_DISTANCES_M,
+    pinch_candidates,
+    pinch_neighbours,
+)
 from tasks.grasp.planner import PlannerParams
 from tasks.grasp.shake import Motion, ShakeParams, shake_test
 
@@ -75,6 +81,32 @@ def test_pinches_lie_on_the_demonstrated_approach_held_back(planner_model: Objec
     for spread in set(spreads):
         closeness = [c.closeness for c, s in zip(found, spreads, strict=True) if s == spread]
         assert closeness == sorted(closeness)
+
+
+def test_neighbours_of_a_pinch_are_rolled_and_moved_on_the_approach(planner_model: ObjectModel) -> None:
+    """A held pinch's neighbours keep its spread and the demonstrated approach; rolled ±15° first, then moved
+    ±5 mm along it, then both."""
+    seed_rot = PALM_ROT.as_matrix()
+    prm = PlannerParams()
+    held = pinch_candidates(planner_model, seed_rot, SEED_POS, prm)[0]
+    found = pinch_neighbours(planner_model, seed_rot, SEED_POS, prm, held)
+    assert 1 <= len(found) <= 8
+    axis = seed_rot[:, 2]
+    seen = []
+    for cand in found:
+        assert float(cand.closed[0]) == pytest.approx(float(held.closed[0]), abs=0.02)  # the held pinch's spread
+        assert np.linalg.norm(np.cross(cand.position - held.position, axis)) < 1e-6  # on the approach
+        move = float((cand.position - held.position) @ axis)
+        roll = (Rotation.from_quat(held.quat_xyzw).inv() * Rotation.from_quat(cand.quat_xyzw)).as_rotvec()
+        assert np.allclose(roll[:2], 0.0, atol=1e-6)  # turned about the approach only
+        steps = (round(move / NEIGHBOUR_STEP_M), round(float(roll[2]) / NEIGHBOUR_ROLL_RAD))
+        assert steps != (0, 0)
+        assert abs(move - steps[0] * NEIGHBOUR_STEP_M) < 1e-6
+        assert abs(float(roll[2]) - steps[1] * NEIGHBOUR_ROLL_RAD) < 1e-6
+        seen.append(steps)
+    kinds = [(m != 0) + 2 * (m != 0 and r != 0) for m, r in seen]
+    assert kinds == sorted(kinds)
+    assert len(set(seen)) == len(seen)
 
 
 def test_thin_gap_handle_is_held_by_a_pinch(planner_model: ObjectModel) -> None:
