@@ -40,3 +40,19 @@ def test_wraps_come_back_near_and_far_pulls_do_not(cylinder: ObjectModel) -> Non
     assert wraps[0].quality.force_closure and wraps[0].near
     assert wraps[0].offset_m < 0.005  # on the demonstrated approach
     assert settled_wraps([far], cylinder, far.position, seed_rot, 0.02, np.radians(15.0)) == []  # pulled 60 mm
+
+
+def test_later_wraps_are_the_next_closest_settled(cylinder: ObjectModel) -> None:
+    """``skip`` settles the grasps after the closest ones: the first settles and the later ones together are the
+    wraps of settling all of them (the planner's late wraps, when no grasp of its first round holds)."""
+    seed_rot = PALM_DOWN.as_matrix()
+    cands = [closed_above(cylinder, gap) for gap in (0.012, 0.004, 0.008)]
+    limits = (cands[1].position, seed_rot, 0.02, np.radians(15.0))
+    every = settled_wraps(cands, cylinder, *limits, count=3)
+    first = settled_wraps(cands, cylinder, *limits, count=1)
+    later = settled_wraps(cands, cylinder, *limits, count=2, skip=1)
+    assert len(every) >= 2
+    assert [w.closeness for w in first] == [0.004]  # the closest, whatever the order given
+    assert [w.closeness for w in first + later] == [w.closeness for w in every]
+    for a, b in zip(first + later, every, strict=True):
+        assert np.allclose(a.position, b.position)
