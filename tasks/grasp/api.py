@@ -246,10 +246,12 @@ def plan_on_model(
     """Best candidate on a built model from a palm seed: the first that holds under ``hold_check`` of the
     first round's settled wraps (``settle.settled_wraps``), then the force-closure grasps near the demonstration
     in order of closeness (up to ``shake_checks`` a round,
-    ``SHAKE_BUDGET`` and ``CHECK_BUDGET_S`` in all; while none holds and a whole check still fits,
+    ``SHAKE_BUDGET`` and ``CHECK_BUDGET_S`` in all; when none of the first round's holds, the wraps of its 4th to
+    10th closest grasps, ``settle.LATE_WRAP_SETTLES``; while none holds and a whole check still fits,
     ``ROUNDS`` annealing rounds then ``REDRAWS`` rounds of the demonstrated approach's poses, each after the
     first on the model's pieces drawn anew, ``redecomposed``; on a mounted part, after the first round, its near
-    grasps without a static force closure that hold and show one once squeezed, ``DYNAMIC_CHECKS``). When none
+    grasps without a static force closure that hold and show one once squeezed, ``DYNAMIC_CHECKS``; on a mounted
+    part still without one, the fingertip pinches, ``_pinch``). When none
     holds: the checked force closure that lasted
     longest, else the first near force closure. Without any near force closure (nothing within reach of the
     demonstrated palm), up to ``FALLBACK_CHECKS`` under ``QUICK_SHAKE`` of: the force closures reached further
