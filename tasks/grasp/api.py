@@ -17,6 +17,7 @@ planning, and ``demo_offset_m`` / ``demo_angle_rad``: how far the palm lies off 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Callable
 
@@ -272,25 +273,22 @@ def plan_on_model(
         found = [(c, variant) for c in search(variant, seed_rot, pos, rng, round_prm)]
         tried += found
         new = [t for t in found if t[0].near and rank_tier(t[0].quality) == 0]
+        wraps_of = functools.partial(
+            settled_wraps,
+            [c for c, _ in found],
+            variant,
+            pos,
+            seed_rot,
+            prm.near_position_m,
+            CHECK_MAX_ANGLE_RAD,
+            mu=prm.mu,
+        )
         if k == 0:  # wraps the static closing misses: fingers that pull the part into the palm
-            wraps = settled_wraps(
-                [c for c, _ in found], variant, pos, seed_rot, prm.near_position_m, CHECK_MAX_ANGLE_RAD, mu=prm.mu
-            )
-            new = [(c, variant) for c in wraps] + new  # a palm-on-part wrap first: it held where fingertips slid
+            new = [(c, variant) for c in wraps_of()] + new  # a palm-on-part wrap first: it held where fingertips slid
         closure += new
         held = budget.first_that_holds([t for t in new if t[0].angle_rad <= CHECK_MAX_ANGLE_RAD], shake_checks)
         if held is None and k == 0 and not budget.spent():  # wraps from grasps further from the demonstration
-            late = settled_wraps(
-                [c for c, _ in found],
-                variant,
-                pos,
-                seed_rot,
-                prm.near_position_m,
-                CHECK_MAX_ANGLE_RAD,
-                count=LATE_WRAP_SETTLES,
-                skip=WRAP_SETTLES,
-                mu=prm.mu,
-            )
+            late = wraps_of(count=LATE_WRAP_SETTLES, skip=WRAP_SETTLES)
             closure += [(c, variant) for c in late]
             held = budget.first_that_holds([(c, variant) for c in late], shake_checks)
         if held is None and k == 0 and variant.mount is not None:  # a handle or lever the static closing pushes off

@@ -17,7 +17,6 @@ palm, are to touch. The fingers close from the open hand (``barrett.OPEN_FINGER_
 
 from __future__ import annotations
 
-import itertools
 import math
 
 import numpy as np
@@ -70,12 +69,8 @@ def pinch_neighbours(
     or moved, their contacts fall apart along it and may close (the benchmark's handle r13 l128: the spread-0
     pinch from 80 mm held with no force closure, the one from 75 mm rolled -15° held with one)."""
     space = ApproachSpace(seed_rot, seed_pos, pivot_distance(model, seed_rot, seed_pos, params.max_pivot_m))
-    steps = [
-        (move, roll)
-        for move, roll in itertools.product((0.0, -NEIGHBOUR_STEP_M, NEIGHBOUR_STEP_M), (0.0, -1.0, 1.0))
-        if move or roll
-    ]
-    steps.sort(key=lambda s: (s[0] != 0.0) + 2 * (s[1] != 0.0 and s[0] != 0.0))
+    moves, rolls = (-NEIGHBOUR_STEP_M, NEIGHBOUR_STEP_M), (-1.0, 1.0)
+    steps = [(0.0, r) for r in rolls] + [(m, 0.0) for m in moves] + [(m, r) for m in moves for r in rolls]
     picks = []
     for move, roll in steps:
         x = held.state.copy()
