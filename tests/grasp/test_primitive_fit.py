@@ -27,6 +27,7 @@ from tasks.grasp.primitive_fit import (
     fit_cylinder,
     fit_primitive,
     surface_distance,
+    tolerance,
 )
 
 NOISE_M = 0.0003
@@ -113,10 +114,10 @@ def test_surface_distance_is_to_the_surface_not_the_solid() -> None:
     np.testing.assert_allclose(surface_distance(cylinder, probe), [0.02, 0.0, 0.0, 0.01, 0.005], atol=1e-12)
 
 
-def _sphere(rng: np.random.Generator) -> Points:
-    """2500 points on a sphere of radius 40 mm."""
+def _sphere(rng: np.random.Generator, radius_m: float = 0.04) -> Points:
+    """2500 points on a sphere (radius 40 mm unless given)."""
     v = rng.normal(size=(2500, 3))
-    out: Points = 0.04 * v / np.linalg.norm(v, axis=1, keepdims=True)
+    out: Points = radius_m * v / np.linalg.norm(v, axis=1, keepdims=True)
     return out
 
 
@@ -271,3 +272,38 @@ def test_a_knob_on_a_box_is_caught_by_the_rms_and_ignored_by_the_refinement() ->
     # the soft-L1 loss keeps the box where the faces are
     np.testing.assert_allclose(np.sort(fit.shape.size), [0.03, 0.04, 0.05], atol=0.001)
     np.testing.assert_allclose(fit.shape.position, [0.0, 0.0, 0.0], atol=0.001)
+
+
+def test_tolerance_follows_the_object_size() -> None:
+    assert tolerance(0.0015, 0.05) == pytest.approx(0.0015)
+    assert tolerance(0.0015, 0.01) == pytest.approx(0.001)  # a tenth of the radius
+    assert tolerance(0.0015, 0.003) == pytest.approx(0.0009)  # not below 0.6 of the given one
+    assert tolerance(0.0015, 0.3) == pytest.approx(0.003)  # 1 % of the radius
+    assert tolerance(0.0005, 0.01) == pytest.approx(0.0005)
+
+
+@pytest.mark.parametrize("radius_m", [0.008, 0.01])
+def test_small_sphere_gives_none(radius_m: float) -> None:
+    rng = np.random.default_rng(13)
+    scan = _scan(_sphere(rng, radius_m), rng)
+    assert fit_primitive(*scan) is None
+    cylinder = fit_cylinder(*scan)
+    assert cylinder is not None
+    assert cylinder.p95_m < TOLERANCE_M  # the flat 1.5 mm would take it for a cylinder
+
+
+@pytest.mark.parametrize(
+    ("make", "kind"),
+    [
+        (lambda rng: sample_cylinder_surface(0.005, 0.01, 1500, rng)[0], "cylinder"),
+        (lambda rng: sample_box_surface(np.array([0.006, 0.006, 0.006]), 1500, rng)[0], "box"),
+    ],
+    ids=["pin r5 hh10", "cube 12 mm"],
+)
+def test_small_primitives_still_fit(make: Callable[[np.random.Generator], Points], kind: str) -> None:
+    rng = np.random.default_rng(14)
+    posed, _, shift = _posed(make(rng), 14)
+    fit = fit_primitive(*_scan(posed, rng))
+    assert fit is not None
+    assert fit.shape.kind == kind
+    assert np.linalg.norm(np.array(fit.shape.position) - shift) < 0.001
