@@ -307,3 +307,20 @@ def test_small_primitives_still_fit(make: Callable[[np.random.Generator], Points
     assert fit is not None
     assert fit.shape.kind == kind
     assert np.linalg.norm(np.array(fit.shape.position) - shift) < 0.001
+
+
+def test_noisy_normals_with_random_signs_still_fit() -> None:
+    rng = np.random.default_rng(15)
+    pts, _ = sample_box_surface(np.array([0.02, 0.035, 0.05]), 2500, rng)
+    posed, rot, shift = _posed(pts, 15)
+    scan, normals = _scan(posed, rng)
+    tilt = Rotation.from_rotvec(rng.normal(0.0, math.radians(20.0) / math.sqrt(2), normals.shape))
+    flipped = tilt.apply(normals) * rng.choice([-1.0, 1.0], size=(len(normals), 1))
+    fit = fit_primitive(scan, flipped)
+    assert fit is not None
+    assert fit.shape.kind == "box"
+    assert np.linalg.norm(np.array(fit.shape.position) - shift) < 0.001
+    np.testing.assert_allclose(np.sort(fit.shape.size), [0.02, 0.035, 0.05], atol=0.001)
+    fitted = _axes(fit.shape)
+    for true_axis in rot.as_matrix().T:
+        assert min(_angle_deg(true_axis, axis) for axis in fitted.T) < 2.0
