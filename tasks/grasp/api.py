@@ -11,7 +11,8 @@ closes towards: execute by opening the hand at spread 1.13 + a1 (fingers ``barre
 palm along +z to the wrist pose and closing the fingers towards a2 (``barrett.CLOSE_AMPLITUDE``: fully) until they
 stop on the part, as ``tasks.simulate`` and the scenes' truth grasps do. ``quality`` holds epsilon, volume,
 force_closure, the contact count, the closed DOFs ``closed_dofs`` [spread, f1, f2, f3] (radians) found in
-planning, and ``demo_offset_m`` / ``demo_angle_rad``: how far the palm lies off the demonstrated approach.
+planning, ``demo_offset_m`` / ``demo_angle_rad``: how far the palm lies off the demonstrated approach, and
+(``plan_grasp``) ``planned_on``: the fitted box or cylinder, or the convex pieces the grasp was planned on.
 """
 
 from __future__ import annotations
@@ -340,7 +341,14 @@ def plan_grasp(
     pos, quat = check_seed(seed_position, seed_quat_xyzw)
     approach = Rotation.from_quat(quat).as_matrix()[:, 2]
     model = build_object_model(object_points, rng, viewpoint=pos, approach=approach)
-    return grasp_from_candidate(plan_on_model(model, seed_position, seed_quat_xyzw, rng, params))
+    grasp = grasp_from_candidate(plan_on_model(model, seed_position, seed_quat_xyzw, rng, params))
+    return dataclasses.replace(grasp, quality={**grasp.quality, "planned_on": planned_on(model)})
+
+
+def planned_on(model: ObjectModel) -> str:
+    """What a grasp was planned on: ``"box"`` or ``"cylinder"`` (a primitive fitted to the points), else
+    ``"convex pieces"`` (of the points; the part's and its mount's when a mount was found)."""
+    return model.primitive.kind if model.primitive is not None else "convex pieces"
 
 
 def part_near(points: Points, palm_position: Vector3, radius_m: float = CROP_RADIUS_M) -> Points:

@@ -32,7 +32,8 @@ def test_normals_point_outwards_on_a_box() -> None:
 def test_convex_pieces_cover_the_cloud_and_collide_in_pybullet() -> None:
     rng = np.random.default_rng(1)
     pts, _ = sample_box_surface(np.array([0.03, 0.03, 0.03]), 2000, rng)
-    model = build_object_model(pts, rng)
+    model = build_object_model(pts, rng, fit=False)
+    assert model.primitive is None
     assert len(model.parts) > 4
     assert model.radius == pytest.approx(np.sqrt(3) * 0.03, rel=0.1)
     client = pb.connect(pb.DIRECT)
