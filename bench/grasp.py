@@ -8,8 +8,9 @@ open hand at the demonstrated pose, approach up to 30 mm, close, no search); for
 palm's distance and angle from the demonstrated palm, planning time (wall and CPU seconds).
 
 The hold figure is the benchmark's own test, not the planner's: the planner checks its candidates with
-``tasks.grasp.api.hold_check`` (gravity down and tilted 30° to either end of the palm's x axis, x/y/z shakes at 6.5
-m/s² and a 7.5° palm turn, one cycle each, 6 s, 5 mm / 5°) on its own object model. The benchmark shakes each grasp
+``tasks.grasp.hold_check.hold_check`` (gravity down and tilted 30° to either end of the palm's x axis, x/y/z
+shakes at 6.5 m/s² and a 7.5° palm turn, one cycle each, 6 s, on a fitted box or cylinder three cycles, 15 s; 5 mm /
+5°) on its own object model. The benchmark shakes each grasp
 (ours and the baseline's alike) on an independent model of the object (the exact box or cylinder primitive; for a
 scene, the grasped part, its handle, lever or cap, sampled anew from the scene's shapes, and as its mount the rest
 of a fresh scan within 15 cm of the palm; a handle sampled anew, its plate the mount), each cut into its own convex

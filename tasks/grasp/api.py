@@ -30,6 +30,13 @@ from schemas.descriptor import Grasp
 from tasks.arrays import FloatArray, Points, Vector3
 from tasks.errors import GraspError
 from tasks.grasp import barrett
+from tasks.grasp.hold_check import (
+    CHECK_CYCLES,
+    CHECK_LENGTH_S,
+    PRIMITIVE_CHECK_CYCLES,
+    check_length_s,
+    hold_check,
+)
 from tasks.grasp.object_model import ObjectModel, build_object_model, check_object_points, crop_points
 from tasks.grasp.pinch import pinch_candidates, pinch_neighbours
 from tasks.grasp.planner import GraspCandidate, PlannerParams, rank_tier, search
@@ -42,7 +49,7 @@ from tasks.grasp.seed import (
     wrist_pose_at,
 )
 from tasks.grasp.settle import LATE_WRAP_SETTLES, WRAP_SETTLES, settle, settled_wraps
-from tasks.grasp.shake import QUICK_SHAKE, Motion, ShakeParams, shake_test
+from tasks.grasp.shake import QUICK_SHAKE, ShakeParams, shake_test
 from tasks.recording.load import PoseTrack
 
 HAND = "barrett"
@@ -81,21 +88,6 @@ takes ``CHECK_LENGTH_S``, 0.08-0.12 s CPU per simulated second on a scan's conve
 searched, and a check started, only while a whole check still fits in what is left. At 13 s, two slips after 3.6
 and 4.9 s left a box no room for a third check, and door seed 0's squeezed-grasp pass ran out before the grasp
 that held."""
-CHECK_TILT_RAD = math.radians(30.0)
-CHECK_PEAK_MS2 = 6.5
-CHECK_FREQUENCY_HZ = 3.0
-CHECK_TURN_RAD = math.radians(7.5)
-CHECK_TURN_HZ = 2.0
-CHECK_CYCLES = 1.0
-"""``hold_check``'s program: gravity tilt (rad), translation peak acceleration (m/s²) and frequency (Hz), palm
-turn amplitude (rad) and frequency (Hz), cycles of each motion (whole cycles: A (1 - cos ωt) ends where it
-began)."""
-CHECK_LENGTH_S = 3 * (0.5 + CHECK_CYCLES * (3 / CHECK_FREQUENCY_HZ + 1 / CHECK_TURN_HZ))
-"""Simulated length of ``hold_check`` (s): three gravity phases, each 0.5 s settling then the four motions."""
-CHECK_SHIFT_M = 0.005
-CHECK_TURN_TOL_RAD = math.radians(5.0)
-"""``hold_check`` fails a grasp whose part moved 5 mm or turned 5° in the hand: half the slip a longer, harsher
-shake allows (10 mm, 10°), since slip that starts in a short check goes on in a longer one."""
 CHECK_MAX_ANGLE_RAD = math.radians(15.5)
 """Only near force closures turned at most 15° from the demonstrated palm (the demonstrated approach's rolls,
 ``planner.LINE_POSES``) are checked and chosen for holding: a grasp held under the check at 24° from the
@@ -130,67 +122,43 @@ def grasp_from_candidate(candidate: GraspCandidate) -> Grasp:
 Tried = tuple[GraspCandidate, ObjectModel]
 
 
-def hold_check(palm_quat_xyzw: FloatArray) -> ShakeParams:
-    """The planner's hold check for a grasp whose palm has orientation ``palm_quat_xyzw`` (world [x, y, z, w]):
-    gravity world down, then tilted 30° towards either end of the palm's x axis (the axis of a bar the fingers
-    close round: a lever slides along it) laid horizontal, or of its y axis when x is near vertical; in each
-    phase translations along world x, y and z with 6.5 m/s² peaks at 3 Hz and a turn of the palm of 7.5° about
-    the world diagonal at 2 Hz, one cycle each (6 s in all), within 5 mm and 5°. Run on the planner's own
-    object model. The former check (world gravity only, 4.9 m/s² peaks, 10 mm and 10°) passed fingertip grasps
-    that a longer, harsher shake drops."""
-    rot = Rotation.from_quat(palm_quat_xyzw).as_matrix()
-    down = np.array([0.0, 0.0, -1.0])
-    side = rot[:, 0] - float(rot[:, 0] @ down) * down
-    if float(np.linalg.norm(side)) < 0.3:
-        side = rot[:, 1] - float(rot[:, 1] @ down) * down
-    side = side / float(np.linalg.norm(side))
-    gravity = [(0.0, 0.0, -9.81)]
-    for sign in (1.0, -1.0):
-        g = 9.81 * (math.cos(CHECK_TILT_RAD) * down + sign * math.sin(CHECK_TILT_RAD) * side)
-        gravity.append((float(g[0]), float(g[1]), float(g[2])))
-    amplitude = CHECK_PEAK_MS2 / (2.0 * math.pi * CHECK_FREQUENCY_HZ) ** 2
-    axes = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
-    motions = [Motion(a, amplitude, CHECK_FREQUENCY_HZ, CHECK_CYCLES) for a in axes]
-    diagonal = 1.0 / math.sqrt(3.0)
-    motions.append(Motion((diagonal, diagonal, diagonal), CHECK_TURN_RAD, CHECK_TURN_HZ, CHECK_CYCLES, turn=True))
-    return ShakeParams(
-        max_shift_m=CHECK_SHIFT_M, max_turn_rad=CHECK_TURN_TOL_RAD, gravity=tuple(gravity), motions=tuple(motions)
-    )
-
-
 class _ShakeBudget:
     """Hold checks left for one plan (a count and simulated seconds); the checked grasp that lasted longest."""
 
-    def __init__(self, count: int, seconds: float = CHECK_BUDGET_S) -> None:
-        """Allow ``count`` checks and ``seconds`` of simulated shaking."""
+    def __init__(self, count: int, seconds: float | None = None, cycles: float = CHECK_CYCLES) -> None:
+        """Allow ``count`` checks of ``cycles`` (``hold_check``) and ``seconds`` of simulated shaking (by default
+        ``CHECK_BUDGET_S`` scaled with the checks' length)."""
         self.left = count
-        self.seconds = seconds
+        self.cycles = cycles
+        self.seconds = CHECK_BUDGET_S * check_length_s(cycles) / CHECK_LENGTH_S if seconds is None else seconds
         self.longest: GraspCandidate | None = None
         self.longest_s = -1.0
         self.unaccepted: list[GraspCandidate] = []
         """Candidates that held but that ``accept`` turned down, in the order checked."""
 
     def spent(self) -> bool:
-        """Whether no further check may start: none left, or a check that holds (``CHECK_LENGTH_S``) would
+        """Whether no further check may start: none left, or a check that holds (``check_length_s``) would
         overrun the simulated seconds left."""
-        return self.left <= 0 or self.seconds < CHECK_LENGTH_S
+        return self.left <= 0 or self.seconds < check_length_s(self.cycles)
 
     def first_that_holds(
         self,
         candidates: list[Tried],
         checks: int,
-        program: Callable[[FloatArray], ShakeParams] = hold_check,
+        program: Callable[[FloatArray], ShakeParams] | None = None,
         accept: Callable[[Tried], GraspCandidate | None] = lambda t: t[0],
     ) -> GraspCandidate | None:
         """The first of up to ``checks`` (candidate, model) pairs whose grasp holds under ``program`` (of the
-        palm's orientation) and that ``accept`` returns a grasp for (the candidate itself by default)."""
+        palm's orientation; by default ``hold_check`` with the budget's cycles) and that ``accept`` returns a grasp
+        for (the candidate itself by default)."""
+        check = program or functools.partial(hold_check, cycles=self.cycles)
         for tried in candidates[:checks]:
             if self.spent():
                 break
             cand, model = tried
             self.left -= 1
             grasp = grasp_from_candidate(cand)
-            result = shake_test(model, grasp, program(np.asarray(grasp.wrist_orientation)))
+            result = shake_test(model, grasp, check(np.asarray(grasp.wrist_orientation)))
             self.seconds -= result.survived_s
             accepted = accept(tried) if result.holds else None
             if accepted is not None:
@@ -245,9 +213,10 @@ def plan_on_model(
     *,
     shake_checks: int = SHAKE_CHECKS,
 ) -> GraspCandidate:
-    """Best candidate on a built model from a palm seed: the first that holds under ``hold_check`` of the
-    first round's settled wraps (``settle.settled_wraps``), then the force-closure grasps near the demonstration
-    in order of closeness (up to ``shake_checks`` a round,
+    """Best candidate on a built model from a palm seed: the first that holds under ``hold_check`` (three cycles,
+    ``PRIMITIVE_CHECK_CYCLES``, on a fitted primitive) of the first round's settled wraps
+    (``settle.settled_wraps``), then the force-closure grasps near the demonstration in order of closeness (up to
+    ``shake_checks`` a round,
     ``SHAKE_BUDGET`` and ``CHECK_BUDGET_S`` in all; when none of the first round's holds, the wraps of its 4th to
     10th closest grasps, ``settle.LATE_WRAP_SETTLES``; while none holds and a whole check still fits,
     ``ROUNDS`` annealing rounds then ``REDRAWS`` rounds of the demonstrated approach's poses, each after the
@@ -262,7 +231,8 @@ def plan_on_model(
     would not be the demonstrated one), else the closest."""
     pos, quat = check_seed(seed_position, seed_quat_xyzw)
     seed_rot = Rotation.from_quat(quat).as_matrix()
-    budget = _ShakeBudget(SHAKE_BUDGET)
+    # a fitted primitive is cheap to shake: checks as long as the benchmark's program
+    budget = _ShakeBudget(SHAKE_BUDGET, cycles=CHECK_CYCLES if model.primitive is None else PRIMITIVE_CHECK_CYCLES)
     tried: list[Tried] = []
     closure: list[Tried] = []
     prm = params or PlannerParams()

@@ -7,7 +7,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from bench.cases.grasp import handle_on_plate
-from tasks.grasp.api import hold_check, plan_grasp
+from tasks.grasp.api import plan_grasp
+from tasks.grasp.hold_check import hold_check
 from tasks.grasp.object_model import (
     PrimitiveShape,
     build_object_model,
