@@ -261,5 +261,5 @@ def shake_test(model: ObjectModel, grasp: Grasp, params: ShakeParams | None = No
 
 QUICK_SHAKE = ShakeParams()
 """A quick check: world gravity, x, y, z and two diagonals (it stops as soon as a grasp fails it, so a failing grasp
-costs little). The planner's check when it found no force closure (``tasks.grasp.hold_check.hold_check`` otherwise), and
-the benchmark's second, milder hold line."""
+costs little). The planner's check when it found no force closure (``tasks.grasp.hold_check.hold_check``
+otherwise), and the benchmark's second, milder hold line."""
