@@ -14,15 +14,9 @@ from scipy.spatial.transform import Rotation
 
 from tasks.arrays import Points
 from tasks.grasp.api import part_near
-from tasks.grasp.object_model import (
-    ObjectModel,
-    PrimitiveShape,
-    build_object_model,
-    labelled_model,
-    sample_box_surface,
-    sample_cylinder_surface,
-)
+from tasks.grasp.object_model import ObjectModel, PrimitiveShape, build_object_model, labelled_model
 from tasks.grasp.shake import Motion, ShakeParams
+from tasks.grasp.surface_sampling import sample_box_surface, sample_cylinder_surface
 from tasks.scenes.scene import Scene
 from tasks.scenes.surface import WorldShape, model_shapes, sample_shapes
 

@@ -13,9 +13,9 @@ from tasks.grasp.object_model import (
     build_object_model,
     estimate_normals,
     load_object,
-    sample_box_surface,
     voxel_downsample,
 )
+from tasks.grasp.surface_sampling import sample_box_surface
 
 from .conftest import PALM_DOWN
 

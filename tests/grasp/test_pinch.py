@@ -12,13 +12,7 @@ from scipy.spatial.transform import Rotation
 
 from tasks.arrays import Points
 from tasks.grasp.api import grasp_from_candidate, plan_on_model
-from tasks.grasp.object_model import (
-    ObjectModel,
-    build_object_model,
-    labelled_model,
-    sample_box_surface,
-    sample_cylinder_surface,
-)
+from tasks.grasp.object_model import ObjectModel, build_object_model, labelled_model
 from tasks.grasp.pinch import (
     NEIGHBOUR_ROLL_RAD,
     NEIGHBOUR_STEP_M,
@@ -28,6 +22,7 @@ from tasks.grasp.pinch import (
 )
 from tasks.grasp.planner import PlannerParams
 from tasks.grasp.shake import Motion, ShakeParams, shake_test
+from tasks.grasp.surface_sampling import sample_box_surface, sample_cylinder_surface
 
 BAR_CENTRE = np.array([0.5, 0.0, 0.5])
 BAR_RADIUS_M = 0.010

@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 
 from schemas.descriptor import Grasp
-from tasks.grasp.object_model import ObjectModel, build_object_model, sample_box_surface
+from tasks.grasp.object_model import ObjectModel, build_object_model
 from tasks.grasp.shake import Motion, ShakeParams, shake_test
+from tasks.grasp.surface_sampling import sample_box_surface
 
 from .conftest import PALM_DOWN
 
