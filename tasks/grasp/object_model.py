@@ -284,7 +284,8 @@ def build_object_model(
     ``fit``, a box or cylinder whose surface explains the points (``tasks.grasp.primitive_fit``: a carton, a
     bottle, a can) becomes the model's ``primitive`` instead of convex pieces, as GraspIt plans on shape primitives
     (Miller et al. 2003): the pieces' edges and seams, which fall differently with each k-means draw, decided
-    which grasps held (``bench/grasp.py``: 36/42 boxes and cylinders held on pieces, 39/42 on the fit)."""
+    which grasps held (``bench/grasp.py`` seeds 7, 11, 13: 36/42 boxes and cylinders held on pieces, 39/42 on the
+    fit with the planner's 6 s check, 41/42 with its checks on primitives, ``tasks.grasp.api.plan_on_model``)."""
     pts = check_object_points(points)
     if normals is None:
         pts = voxel_downsample(pts, voxel_m)

@@ -103,7 +103,7 @@ def fit_primitive(points: Points, normals: Points, *, tolerance_m: float = TOLER
         return None
     tol = tolerance(tolerance_m, float(np.linalg.norm(pts - pts.mean(axis=0), axis=1).max()))
     kept = []
-    for fit in (fit_box(pts, nrm), fit_cylinder(pts, nrm)):
+    for fit in (_box_fit(pts, nrm), _cylinder_fit(pts, nrm)):
         if fit is None:
             continue
         if fit.p95_m <= tol and fit.rms_m <= RMS_FRACTION * tol and _supported(fit.shape, pts, tol):
@@ -123,19 +123,27 @@ def fit_box(points: Points, normals: Points) -> PrimitiveFit | None:
     """The best box through (n, 3) world ``points`` (m) with ``normals`` (n, 3), however poor (None when the normals
     show no two perpendicular directions); checked by ``fit_primitive``."""
     pts, nrm = _check(points, normals)
-    frame = _normal_frame(nrm) if len(pts) >= MIN_POINTS else None
-    if frame is None:
-        return None
-    lo, hi = np.quantile(pts @ frame, [0.005, 0.995], axis=0)
-    return _refined("box", pts, frame, frame @ ((lo + hi) / 2), (hi - lo) / 2)
+    return _box_fit(pts, nrm) if len(pts) >= MIN_POINTS else None
 
 
 def fit_cylinder(points: Points, normals: Points) -> PrimitiveFit | None:
     """The best cylinder through (n, 3) world ``points`` (m) with ``normals`` (n, 3), however poor (None when no
     axis leaves enough side points for a circle); checked by ``fit_primitive``."""
     pts, nrm = _check(points, normals)
-    if len(pts) < MIN_POINTS:
+    return _cylinder_fit(pts, nrm) if len(pts) >= MIN_POINTS else None
+
+
+def _box_fit(pts: Points, nrm: Points) -> PrimitiveFit | None:
+    """``fit_box`` on points and unit normals already checked (``_check``, at least ``MIN_POINTS``)."""
+    frame = _normal_frame(nrm)
+    if frame is None:
         return None
+    lo, hi = np.quantile(pts @ frame, [0.005, 0.995], axis=0)
+    return _refined("box", pts, frame, frame @ ((lo + hi) / 2), (hi - lo) / 2)
+
+
+def _cylinder_fit(pts: Points, nrm: Points) -> PrimitiveFit | None:
+    """``fit_cylinder`` on points and unit normals already checked (``_check``, at least ``MIN_POINTS``)."""
     starts = [s for s in (_cylinder_start(pts, nrm, axis) for axis in _axis_candidates(pts, nrm)) if s is not None]
     if not starts:
         return None
