@@ -12,6 +12,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
+from bench.cases.exact import distance_to, exact_model, handle_shapes
 from tasks.arrays import Points
 from tasks.grasp.api import part_near
 from tasks.grasp.object_model import ObjectModel, PrimitiveShape, build_object_model, labelled_model
@@ -26,15 +27,18 @@ Resample = Callable[[np.random.Generator], ObjectModel]
 
 @dataclass
 class Case:
-    """One benchmark object: name, points (world, m), seed palm pose, and its independent model for the hold
-    test (``Resample``; for a scene or a handle, the part with its mount known); ``as_one``: the part and its
-    mount as one free body (the benchmark's former model of scenes and handles)."""
+    """One benchmark object: name, points (world, m), seed palm pose, and its model for the hold test (``truth``,
+    ``Resample``: the exact shapes; for a scene or a handle, the part's exact shapes on their mount's,
+    ``exact.exact_model``); for a scene or a handle also ``pieces``: the part sampled anew and cut into convex
+    pieces, its mount a fresh scan's or the plate's (the benchmark's truth until 2026-12-01), and ``as_one``: the
+    part and its mount as one free body (the one before)."""
 
     name: str
     points: Points
     seed_pos: np.ndarray
     seed_quat: np.ndarray
     truth: Resample
+    pieces: Resample | None = None
     as_one: Resample | None = None
 
 
@@ -116,8 +120,10 @@ def scene_cases(seeds: range) -> list[Case]:
                 return build_object_model(part_near(fresh, palm), rng, viewpoint=palm)
 
             orientation = np.array(grasp.wrist_orientation)
-            held = _part_resample(scene, grasped_shapes(scene), palm)
-            cases.append(Case(f"{name} seed {seed}", pts, palm, orientation, held, rescan))
+            part = grasped_shapes(scene)
+            held = _part_resample(scene, part, palm)
+            exact = _exact_scene(scene, part, palm)
+            cases.append(Case(f"{name} seed {seed}", pts, palm, orientation, exact, held, rescan))
     return cases
 
 
@@ -143,6 +149,23 @@ def _part_resample(scene: Scene, shapes: list[WorldShape], palm: np.ndarray) -> 
         return labelled_model(held, around[gap > MOUNT_GAP_M], rng, viewpoint=palm)
 
     return make
+
+
+MOUNT_REACH_M = 0.18
+"""Shapes of the scene (other than the grasped part's) within this of the demonstrated palm are the exact model's
+mount (the scan crop of ``part_near`` reaches 15 cm from the point nearest the palm)."""
+
+
+def _exact_scene(scene: Scene, part: list[WorldShape], palm: np.ndarray) -> Resample:
+    """The grasped part's exact shapes on the scene's other shapes near the palm (``exact.exact_model``)."""
+    keys = {(s.link, s.kind, s.size, tuple(np.round(s.translation, 6))) for s in part}
+    mount = [
+        s
+        for s in model_shapes(scene)
+        if (s.link, s.kind, s.size, tuple(np.round(s.translation, 6))) not in keys
+        and distance_to(s, palm) <= MOUNT_REACH_M
+    ]
+    return lambda rng: exact_model(part, mount, rng)
 
 
 def grasped_shapes(scene: Scene) -> list[WorldShape]:
@@ -207,7 +230,11 @@ def random_cases(count: int, rng: np.random.Generator) -> list[Case]:
             truth = _handle_resample(r, length, standoff, vertical)
             as_one = _handle_resample(r, length, standoff, vertical, plate=True)
         pos, quat = palm_seed(face, approach, rng.uniform(0.02, 0.06), rng, along)
-        cases.append(Case(name, pts, pos, quat, truth, as_one if kind == "handle" else None))
+        if kind == "handle":
+            shapes = handle_shapes(r, length, standoff, vertical)
+            cases.append(Case(name, pts, pos, quat, lambda g, s=shapes: exact_model(*s, g), truth, as_one))
+        else:
+            cases.append(Case(name, pts, pos, quat, truth))
     return cases
 
 

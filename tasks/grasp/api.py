@@ -12,7 +12,8 @@ palm along +z to the wrist pose and closing the fingers towards a2 (``barrett.CL
 stop on the part, as ``tasks.simulate`` and the scenes' truth grasps do. ``quality`` holds epsilon, volume,
 force_closure, the contact count, the closed DOFs ``closed_dofs`` [spread, f1, f2, f3] (radians) found in
 planning, ``demo_offset_m`` / ``demo_angle_rad``: how far the palm lies off the demonstrated approach, and
-(``plan_grasp``) ``planned_on``: the fitted box or cylinder, or the convex pieces the grasp was planned on.
+(``plan_grasp``) ``planned_on``: the fitted box or cylinder, a mounted part's cylinder and convex pieces, or the
+convex pieces the grasp was planned on.
 """
 
 from __future__ import annotations
@@ -315,9 +316,12 @@ def plan_grasp(
 
 
 def planned_on(model: ObjectModel) -> str:
-    """What a grasp was planned on: ``"box"`` or ``"cylinder"`` (a primitive fitted to the points), else
+    """What a grasp was planned on: ``"box"`` or ``"cylinder"`` (a primitive fitted to the points), ``"cylinder
+    and convex pieces"`` (a mounted part's bar, ``part_cylinders``, the rest of it and its mount in pieces), else
     ``"convex pieces"`` (of the points; the part's and its mount's when a mount was found)."""
-    return model.primitive.kind if model.primitive is not None else "convex pieces"
+    if model.primitive is not None:
+        return model.primitive.kind
+    return "cylinder and convex pieces" if model.cylinder is not None else "convex pieces"
 
 
 def part_near(points: Points, palm_position: Vector3, radius_m: float = CROP_RADIUS_M) -> Points:

@@ -77,6 +77,10 @@ class ObjectModel:
     primitive: PrimitiveShape | None = None
     mount: BoolArray | None = None
     mount_parts: int = 0
+    fitted: bool = False
+    """Whether the part's pieces came from ``_part_pieces`` (so their redraws do too)."""
+    cylinder: PrimitiveShape | None = None
+    """The cylinder found in a mounted part (``part_cylinders``), its first piece, if any."""
     tree: cKDTree = field(init=False, repr=False)
     lower: Vector3 = field(init=False, repr=False)
     upper: Vector3 = field(init=False, repr=False)
@@ -112,7 +116,7 @@ class ObjectModel:
             return ObjectModel(
                 self.points, self.normals, self.center, self.radius, convex_parts(self.points, self.normals, rng)
             )
-        return _mounted(self.points, self.normals, self.mount, rng)
+        return _mounted(self.points, self.normals, self.mount, rng, fit=self.fitted)
 
 
 def check_object_points(points: object, name: str = "object_points") -> Points:
@@ -303,7 +307,7 @@ def build_object_model(
 
         mount = find_mount(pts, viewpoint, approach)
         if mount.any() and int((~mount).sum()) >= MIN_POINTS:
-            return _mounted(pts, nrm, mount, rng)
+            return _mounted(pts, nrm, mount, rng, fit=fit)
     center = pts.mean(axis=0)
     radius = float(np.linalg.norm(pts - center, axis=1).max())
     if primitive is None and fit:
@@ -325,18 +329,42 @@ def labelled_model(
     grip = voxel_downsample(check_object_points(part, "part points"), voxel_m)
     face = voxel_downsample(check_object_points(mount, "mount points"), voxel_m)
     pts = np.concatenate([grip, face])
-    return _mounted(pts, estimate_normals(pts, viewpoint=viewpoint), np.arange(len(pts)) >= len(grip), rng)
+    is_mount = np.arange(len(pts)) >= len(grip)
+    return _mounted(pts, estimate_normals(pts, viewpoint=viewpoint), is_mount, rng, fit=False)
 
 
-def _mounted(points: Points, normals: Points, mount: BoolArray, rng: np.random.Generator) -> ObjectModel:
-    """A model with a mount: the part's convex pieces then the mount's, each cut apart; the part's centre and
-    radius."""
+def _mounted(
+    points: Points, normals: Points, mount: BoolArray, rng: np.random.Generator, *, fit: bool = True
+) -> ObjectModel:
+    """A model with a mount: the part's pieces then the mount's convex pieces, each cut apart; the part's centre and
+    radius. With ``fit``, a cylinder explaining much of the part (a bar, a lever's arm:
+    ``part_cylinders.find_cylinder``) is one exact piece, the rest of the part convex pieces."""
     grip = points[~mount]
     center = grip.mean(axis=0)
     radius = float(np.linalg.norm(grip - center, axis=1).max())
-    pieces = convex_parts(grip, normals[~mount], rng)
+    cylinder, pieces = (
+        _part_pieces(grip, normals[~mount], rng) if fit else (None, convex_parts(grip, normals[~mount], rng))
+    )
     mount_pieces = convex_parts(points[mount], normals[mount], rng)
-    return ObjectModel(points, normals, center, radius, pieces + mount_pieces, None, mount, len(mount_pieces))
+    return ObjectModel(
+        points, normals, center, radius, pieces + mount_pieces, None, mount, len(mount_pieces), fit, cylinder
+    )
+
+
+def _part_pieces(
+    points: Points, normals: Points, rng: np.random.Generator
+) -> tuple[PrimitiveShape | None, tuple[Points, ...]]:
+    """The cylinder found in a part (``part_cylinders``), if any, and the part's pieces: its prism first, then the
+    convex pieces of the points it leaves unexplained."""
+    from tasks.grasp.part_cylinders import find_cylinder, prism_vertices  # noqa: PLC0415 - it imports this module
+    from tasks.grasp.primitive_fit import TOLERANCE_M, surface_distance  # noqa: PLC0415 - likewise
+
+    found = find_cylinder(points, normals, rng)
+    if found is None:
+        return None, convex_parts(points, normals, rng)
+    rest = surface_distance(found.shape, points) > TOLERANCE_M
+    others = convex_parts(points[rest], normals[rest], rng) if rest.sum() >= MIN_PIECE_POINTS else ()
+    return found.shape, (prism_vertices(found.shape), *others)
 
 
 def crop_points(points: Points, center: Vector3, radius_m: float) -> Points:

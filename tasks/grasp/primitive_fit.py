@@ -106,7 +106,7 @@ def fit_primitive(points: Points, normals: Points, *, tolerance_m: float = TOLER
     for fit in (_box_fit(pts, nrm), _cylinder_fit(pts, nrm)):
         if fit is None:
             continue
-        if fit.p95_m <= tol and fit.rms_m <= RMS_FRACTION * tol and _supported(fit.shape, pts, tol):
+        if fit.p95_m <= tol and fit.rms_m <= RMS_FRACTION * tol and supported(fit.shape, pts, tol):
             kept.append(fit)
     return min(kept, key=lambda f: f.rms_m, default=None)
 
@@ -335,7 +335,7 @@ def _robust_spread(points: Points, start: tuple[FloatArray, Vector3, Vector3]) -
     return float(np.minimum(dist, 0.005).mean())
 
 
-def _supported(shape: PrimitiveShape, points: Points, tol: float) -> bool:
+def supported(shape: PrimitiveShape, points: Points, tol: float) -> bool:
     """Whether the points within ``tol`` (m) of ``shape``'s surface cover it: a box a seen face (``FACE_COVERAGE``)
     along each axis, a cylinder its side (``MIN_SIDE_ARC``, ``SIDE_BANDS``)."""
     size = np.asarray(shape.size, dtype=np.float64)

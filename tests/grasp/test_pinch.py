@@ -1,6 +1,6 @@
 """Fingertip pinches held back on the demonstrated approach (``pinch.py``): on a bar handle standing 30 mm in front
 of its plate, where fingers wrapping the bar from near the demonstrated palm meet the plate, the planner falls back
-to a pinch that holds the bar under a shake on an independently sampled model."""
+to a pinch that holds the bar, its exact shapes, under a shake."""
 
 from __future__ import annotations
 
@@ -10,9 +10,10 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from bench.cases.exact import exact_model
 from tasks.arrays import Points
 from tasks.grasp.api import grasp_from_candidate, plan_on_model
-from tasks.grasp.object_model import ObjectModel, build_object_model, labelled_model
+from tasks.grasp.object_model import ObjectModel, build_object_model
 from tasks.grasp.pinch import (
     NEIGHBOUR_ROLL_RAD,
     NEIGHBOUR_STEP_M,
@@ -23,6 +24,7 @@ from tasks.grasp.pinch import (
 from tasks.grasp.planner import PlannerParams
 from tasks.grasp.shake import Motion, ShakeParams, shake_test
 from tasks.grasp.surface_sampling import sample_box_surface, sample_cylinder_surface
+from tasks.scenes.surface import WorldShape
 
 BAR_CENTRE = np.array([0.5, 0.0, 0.5])
 BAR_RADIUS_M = 0.010
@@ -106,15 +108,27 @@ def test_neighbours_of_a_pinch_are_rolled_and_moved_on_the_approach(planner_mode
 
 def test_thin_gap_handle_is_held_by_a_pinch(planner_model: ObjectModel) -> None:
     """No grasp near the demonstration holds; the planned grasp is a pinch 60-100 mm from the bar, with a force
-    closure, and it holds the bar (a free body, the plate an obstacle while the fingers close) on a model
-    sampled anew, under world gravity and shakes along x, y and z at 2.5 Hz with 6 m/s² peaks, three cycles."""
+    closure, and it holds the bar (a free body, the plate an obstacle while the fingers close) on its exact shapes
+    (``bench/cases/exact.py``), under world gravity and shakes along x, y and z at 2.5 Hz with 6 m/s² peaks, three
+    cycles."""
     cand = plan_on_model(planner_model, SEED_POS, PALM_ROT.as_quat(), np.random.default_rng(7))
     grasp = grasp_from_candidate(cand)
     assert grasp.quality["force_closure"] is True
     palm_to_bar = (BAR_CENTRE[1] - BAR_RADIUS_M) - grasp.wrist_position[1]
     assert min(PINCH_DISTANCES_M) - 0.002 <= palm_to_bar <= max(PINCH_DISTANCES_M) + 0.002
-    part, plate = handle_points(np.random.default_rng(1))
-    fresh = labelled_model(part, plate, np.random.default_rng(1), viewpoint=SEED_POS)
+    along = Rotation.from_euler("y", 90, degrees=True).as_matrix()
+    post = Rotation.from_euler("x", 90, degrees=True).as_matrix()
+    bar = [WorldShape("handle", "cylinder", (BAR_RADIUS_M, 0.113), along, BAR_CENTRE)]
+    posts = [
+        WorldShape(
+            "handle", "cylinder", (0.006, STANDOFF_M), post, BAR_CENTRE + np.array([s * 0.0465, STANDOFF_M / 2, 0])
+        )
+        for s in (-1.0, 1.0)
+    ]
+    plate = WorldShape(
+        "plate", "box", (0.173, 0.01, 0.06), np.eye(3), BAR_CENTRE + np.array([0, STANDOFF_M + 0.005, 0])
+    )
+    fresh = exact_model(bar + posts, [plate], np.random.default_rng(1))
     amplitude = 6.0 / (2.0 * math.pi * 2.5) ** 2
     axes = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
     program = ShakeParams(motions=tuple(Motion(a, amplitude, 2.5, 3.0) for a in axes))
