@@ -53,7 +53,8 @@ from bench.cases.grasp import Case, hold_program, random_cases, scene_cases
 from schemas.descriptor import Grasp
 from tasks.errors import GraspError
 from tasks.grasp import barrett
-from tasks.grasp.api import grasp_from_candidate, part_near, plan_on_model
+from tasks.grasp.api import part_near, plan_on_model
+from tasks.grasp.candidate_grasp import grasp_from_candidate
 from tasks.grasp.object_model import (
     ObjectModel,
     build_object_model,

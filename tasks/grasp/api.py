@@ -30,13 +30,11 @@ from scipy.spatial.transform import Rotation
 from schemas.descriptor import Grasp
 from tasks.arrays import FloatArray, Points, Vector3
 from tasks.errors import GraspError
-from tasks.grasp import barrett
+from tasks.grasp.candidate_grasp import grasp_from_candidate
+from tasks.grasp.hold_budget import HoldBudget, Tried, closed_or_squeezed, squeezed
 from tasks.grasp.hold_check import (
     CHECK_CYCLES,
-    CHECK_LENGTH_S,
     PRIMITIVE_CHECK_CYCLES,
-    check_length_s,
-    hold_check,
 )
 from tasks.grasp.object_model import ObjectModel, build_object_model, check_object_points, crop_points
 from tasks.grasp.pinch import pinch_candidates, pinch_neighbours
@@ -49,12 +47,11 @@ from tasks.grasp.seed import (
     stillest_time_ns,
     wrist_pose_at,
 )
-from tasks.grasp.settle import LATE_WRAP_SETTLES, WRAP_SETTLES, settle, settled_wraps
-from tasks.grasp.shake import QUICK_SHAKE, ShakeParams, shake_test
+from tasks.grasp.settle import LATE_WRAP_SETTLES, WRAP_SETTLES, settled_wraps
+from tasks.grasp.shake import QUICK_SHAKE
 from tasks.grasp.slide import slide_candidates
 from tasks.recording.load import PoseTrack
 
-HAND = "barrett"
 CROP_RADIUS_M = 0.15
 """Object points farther than this from the part nearest the seed palm are left out (the part to grasp)."""
 SHAKE_CHECKS = 5
@@ -68,12 +65,12 @@ REDRAWS = 4
 anew: which of them close into force closure on a scan depends on how its convex pieces fall."""
 DYNAMIC_CHECKS = 24
 """On a part with a mount (a handle or a lever) or a fitted box or cylinder, when none of the first round's force
-closures holds: up to this many more hold checks, with a budget of their own (``CHECK_BUDGET_S``; most fail within 0.1 s
-simulated), of its near grasps without a static force closure. Closed on a static model the fingers push a bar away from
-the palm and touch it on one side; squeezing, they hold it (``squeezed``): door seed 1's lever held with spread π/2 and
-the palm 20 mm behind the demonstrated one, epsilon 0 static, 0.068 squeezed. On the convex pieces of parts without a
-mount the pass found no hold the benchmark confirmed and took a bottle cap's plan to 5.6 s CPU; on a fitted primitive
-(checks of ``PRIMITIVE_CHECK_CYCLES``) it found box 58x59x114 mm's (seed 7), plans within 3.3 s."""
+closures holds: up to this many more hold checks, with a budget of their own (``hold_budget.CHECK_BUDGET_S``; most fail
+within 0.1 s simulated), of its near grasps without a static force closure. Closed on a static model the fingers push a
+bar away from the palm and touch it on one side; squeezing, they hold it (``squeezed``): door seed 1's lever held with
+spread π/2 and the palm 20 mm behind the demonstrated one, epsilon 0 static, 0.068 squeezed. On the convex pieces of
+parts without a mount the pass found no hold the benchmark confirmed and took a bottle cap's plan to 5.6 s CPU; on a
+fitted primitive (checks of ``PRIMITIVE_CHECK_CYCLES``) it found box 58x59x114 mm's (seed 7), plans within 3.3 s."""
 PINCH_CHECKS = 10
 """When no grasp near the demonstration holds: hold checks of fingertip pinches held back on the demonstrated
 approach (``pinch.py``), with a budget of their own; a pinch without a static force closure is kept when it shows
@@ -88,122 +85,12 @@ NEIGHBOUR_CHECKS = 8
 """When a pinch held without a force closure: hold checks of its neighbours (``pinch.pinch_neighbours``), with a
 budget of their own."""
 SHAKE_BUDGET = 6
-"""Hold checks one plan may run on near force closures (``FALLBACK_CHECKS`` more after them) ..."""
-CHECK_BUDGET_S = 20.0
-"""... and simulated seconds of shaking they may take in all (a check stops when the part slips; one that holds
-takes ``CHECK_LENGTH_S``, 0.08-0.12 s CPU per simulated second on a scan's convex pieces). A further round is
-searched, and a check started, only while a whole check still fits in what is left. At 13 s, two slips after 3.6
-and 4.9 s left a box no room for a third check, and door seed 0's squeezed-grasp pass ran out before the grasp
-that held."""
-FIRM_SHIFT_M = 0.0025
-FIRM_TURN_RAD = math.radians(2.5)
-"""On a part planned on its bar: a grasp that held under the check but let the part move or turn more than these
-(half the check's tolerances) is kept back while a firmer one may be found (the later passes, then the grasps slid
-along the bar), and chosen only when none is. Three fingertips on a door lever's round arm turned it 3.4-3.7° in
-the 6 s check and past 10° in the benchmark's 16 s; slid 25 mm along the arm and held back 20 mm, the grasp that
-held turned it 1-2°."""
+"""Hold checks one plan may run on near force closures (``FALLBACK_CHECKS`` more after them), within
+``hold_budget.CHECK_BUDGET_S`` simulated seconds of shaking."""
 CHECK_MAX_ANGLE_RAD = math.radians(15.5)
 """Only near force closures turned at most 15° from the demonstrated palm (the demonstrated approach's rolls,
 ``planner.LINE_POSES``) are checked and chosen for holding: a grasp held under the check at 24° from the
 demonstrated palm closed on nothing in execution (a sliding door's handle, ``bench/simulate.py``)."""
-
-
-def grasp_from_candidate(candidate: GraspCandidate) -> Grasp:
-    """The descriptor's ``Grasp`` for a planned candidate (pre-grasp amplitudes, palm pose, qualities)."""
-    q = candidate.quality
-    return Grasp(
-        hand=HAND,
-        eigengrasps=(barrett.spread_amplitude(float(candidate.closed[0])), barrett.CLOSE_AMPLITUDE),
-        wrist_position=(float(candidate.position[0]), float(candidate.position[1]), float(candidate.position[2])),
-        wrist_orientation=(
-            float(candidate.quat_xyzw[0]),
-            float(candidate.quat_xyzw[1]),
-            float(candidate.quat_xyzw[2]),
-            float(candidate.quat_xyzw[3]),
-        ),
-        quality={
-            "epsilon": q.epsilon,
-            "volume": q.volume,
-            "force_closure": q.force_closure,
-            "contacts": q.contacts,
-            "closed_dofs": [float(candidate.closed[0]), *(float(v) for v in candidate.closed[1:4])],
-            "demo_offset_m": candidate.offset_m,
-            "demo_angle_rad": candidate.angle_rad,
-        },
-    )
-
-
-Tried = tuple[GraspCandidate, ObjectModel]
-
-
-class _ShakeBudget:
-    """Hold checks left for one plan (a count and simulated seconds); the checked grasp that lasted longest."""
-
-    def __init__(
-        self,
-        count: int,
-        seconds: float | None = None,
-        cycles: float = CHECK_CYCLES,
-        loose: list[GraspCandidate] | None = None,
-    ) -> None:
-        """Allow ``count`` checks of ``cycles`` (``hold_check``) and ``seconds`` of simulated shaking (by default
-        ``CHECK_BUDGET_S`` scaled with the checks' length)."""
-        self.left = count
-        self.cycles = cycles
-        self.seconds = CHECK_BUDGET_S * check_length_s(cycles) / CHECK_LENGTH_S if seconds is None else seconds
-        self.longest: GraspCandidate | None = None
-        self.longest_s = -1.0
-        self.loose = loose
-        """When given: accepted grasps that held but let the part move more than ``FIRM_SHIFT_M`` or turn more than
-        ``FIRM_TURN_RAD`` are put here instead of returned."""
-        self.unaccepted: list[GraspCandidate] = []
-        """Candidates that held but that ``accept`` turned down, in the order checked."""
-
-    def spent(self) -> bool:
-        """Whether no further check may start: none left, or a check that holds (``check_length_s``) would
-        overrun the simulated seconds left."""
-        return self.left <= 0 or self.seconds < check_length_s(self.cycles)
-
-    def first_that_holds(
-        self,
-        candidates: list[Tried],
-        checks: int,
-        program: Callable[[FloatArray], ShakeParams] | None = None,
-        accept: Callable[[Tried], GraspCandidate | None] = lambda t: t[0],
-    ) -> GraspCandidate | None:
-        """The first of up to ``checks`` (candidate, model) pairs whose grasp holds under ``program`` (of the
-        palm's orientation; by default ``hold_check`` with the budget's cycles) and that ``accept`` returns a grasp
-        for (the candidate itself by default)."""
-        check = program or functools.partial(hold_check, cycles=self.cycles)
-        for tried in candidates[:checks]:
-            if self.spent():
-                break
-            cand, model = tried
-            self.left -= 1
-            grasp = grasp_from_candidate(cand)
-            result = shake_test(model, grasp, check(np.asarray(grasp.wrist_orientation)))
-            self.seconds -= result.survived_s
-            accepted = accept(tried) if result.holds else None
-            firm = result.max_shift_m <= FIRM_SHIFT_M and result.max_turn_rad <= FIRM_TURN_RAD
-            if accepted is not None and self.loose is not None and not firm:
-                self.loose.append(accepted)
-                continue
-            if accepted is not None:
-                return accepted
-            if result.holds:
-                self.unaccepted.append(cand)
-            if result.survived_s > self.longest_s and rank_tier(cand.quality) == 0:
-                self.longest, self.longest_s = cand, result.survived_s
-        return None
-
-
-def squeezed(tried: Tried, mu: float) -> GraspCandidate | None:
-    """A grasp without a static force closure that held under the hold check, with the qualities of its contacts
-    once the fingers have squeezed it (``settle.settle``, friction ``mu``), or None when even then it
-    shows no force closure."""
-    cand, model = tried
-    quality = settle(model, cand.position, cand.quat_xyzw, float(cand.closed[0]), mu).quality
-    return dataclasses.replace(cand, quality=quality) if quality.force_closure else None
 
 
 def redecomposed(model: ObjectModel, rng: np.random.Generator) -> ObjectModel:
@@ -220,13 +107,8 @@ def _slid(
     """The first grasp slid along the part's bar that holds firmly with a force closure (static or squeezed); the
     ones that hold loosely are added to ``loose``."""
     found = [(c, model) for c in slide_candidates(model, seed_rot, seed_pos, prm)]
-    budget = _ShakeBudget(SLIDE_CHECKS, loose=loose)
-    return budget.first_that_holds(found, SLIDE_CHECKS, accept=lambda t: _closed(t, prm.mu))
-
-
-def _closed(tried: Tried, mu: float) -> GraspCandidate | None:
-    """A grasp that held: as it is with a static force closure, else ``squeezed`` (None without one either way)."""
-    return tried[0] if rank_tier(tried[0].quality) == 0 else squeezed(tried, mu)
+    budget = HoldBudget(SLIDE_CHECKS, loose=loose)
+    return budget.first_that_holds(found, SLIDE_CHECKS, accept=lambda t: closed_or_squeezed(t, prm.mu))
 
 
 def _pinch(model: ObjectModel, seed_rot: FloatArray, seed_pos: Vector3, prm: PlannerParams) -> GraspCandidate | None:
@@ -235,15 +117,15 @@ def _pinch(model: ObjectModel, seed_rot: FloatArray, seed_pos: Vector3, prm: Pla
     does; else None."""
 
     def closed(tried: Tried) -> GraspCandidate | None:
-        return _closed(tried, prm.mu)
+        return closed_or_squeezed(tried, prm.mu)
 
-    budget = _ShakeBudget(PINCH_CHECKS)
+    budget = HoldBudget(PINCH_CHECKS)
     found = pinch_candidates(model, seed_rot, seed_pos, prm)
     pinched = budget.first_that_holds([(c, model) for c in found], PINCH_CHECKS, accept=closed)
     if pinched is not None or not budget.unaccepted:
         return pinched
     near = pinch_neighbours(model, seed_rot, seed_pos, prm, budget.unaccepted[0])
-    return _ShakeBudget(NEIGHBOUR_CHECKS).first_that_holds([(c, model) for c in near], NEIGHBOUR_CHECKS, accept=closed)
+    return HoldBudget(NEIGHBOUR_CHECKS).first_that_holds([(c, model) for c in near], NEIGHBOUR_CHECKS, accept=closed)
 
 
 def plan_on_model(
@@ -258,16 +140,16 @@ def plan_on_model(
     """Best candidate on a built model from a palm seed: the first that holds under ``hold_check`` (three cycles,
     ``PRIMITIVE_CHECK_CYCLES``, on a fitted primitive) of the first round's settled wraps (``settle.settled_wraps``),
     then the force-closure grasps near the demonstration in order of closeness (up to ``shake_checks`` a round,
-    ``SHAKE_BUDGET`` and ``CHECK_BUDGET_S`` in all; when none of the first round's holds, the wraps of its 4th to 10th
-    closest grasps, ``settle.LATE_WRAP_SETTLES``; while none holds and a whole check still fits, ``ROUNDS`` annealing
-    rounds then ``REDRAWS`` rounds of the demonstrated approach's poses, each after the first on the model's pieces
-    drawn anew, ``redecomposed``; on a mounted part, after the first round, its near grasps without a static force
-    closure that hold and show one once squeezed, ``DYNAMIC_CHECKS``, and so on a fitted primitive; on a mounted part
-    still without one, the fingertip pinches, ``_pinch``; on a part planned on its bar, a grasp that held loosely,
-    ``FIRM_SHIFT_M``, is kept back for the later passes and the grasps slid along the bar, ``_slid``, and returned
-    before the pinches when none holds firmly). When none holds: the checked force closure that lasted
-    longest, else the first near force closure. Without any near force closure (nothing within reach of the demonstrated
-    palm), up to ``FALLBACK_CHECKS`` under ``QUICK_SHAKE`` of: the force closures reached further along the demonstrated
+    ``SHAKE_BUDGET`` and ``hold_budget.CHECK_BUDGET_S`` in all; when none of the first round's holds, the wraps of its
+    4th to 10th closest grasps, ``settle.LATE_WRAP_SETTLES``; while none holds and a whole check still fits, ``ROUNDS``
+    annealing rounds then ``REDRAWS`` rounds of the demonstrated approach's poses, each after the first on the model's
+    pieces drawn anew, ``redecomposed``; on a mounted part, after the first round, its near grasps without a static
+    force closure that hold and show one once squeezed, ``DYNAMIC_CHECKS``, and so on a fitted primitive; on a mounted
+    part still without one, the fingertip pinches, ``_pinch``; on a part planned on its bar, a grasp that held loosely,
+    ``hold_budget.FIRM_SHIFT_M``, is kept back for the later passes and the grasps slid along the bar, ``_slid``, and
+    returned before the pinches when none holds firmly). When none holds: the checked force closure that lasted longest,
+    else the first near force closure. Without any near force closure (nothing within reach of the demonstrated palm),
+    up to ``FALLBACK_CHECKS`` under ``QUICK_SHAKE`` of: the force closures reached further along the demonstrated
     approach, the other near grasps, the other reached ones; when none holds, the first reached force closure, else the
     closest grasp near the demonstration (force_closure False: a distant grasp would not be the demonstrated one), else
     the closest."""
@@ -276,7 +158,7 @@ def plan_on_model(
     # a fitted primitive is cheap to shake: checks as long as the benchmark's program
     loose: list[GraspCandidate] = []
     firm = loose if model.cylinder is not None else None  # a round bar may roll out of a grasp that held 6 s
-    budget = _ShakeBudget(
+    budget = HoldBudget(
         SHAKE_BUDGET, cycles=CHECK_CYCLES if model.primitive is None else PRIMITIVE_CHECK_CYCLES, loose=firm
     )
     tried: list[Tried] = []
@@ -312,7 +194,7 @@ def plan_on_model(
             dynamic = [
                 t for t in found if t[0].near and rank_tier(t[0].quality) != 0 and t[0].angle_rad <= CHECK_MAX_ANGLE_RAD
             ]
-            extra = _ShakeBudget(DYNAMIC_CHECKS, cycles=budget.cycles, loose=firm)  # most fail within 0.1 s
+            extra = HoldBudget(DYNAMIC_CHECKS, cycles=budget.cycles, loose=firm)  # most fail within 0.1 s
             held = extra.first_that_holds(dynamic, DYNAMIC_CHECKS, accept=lambda t: squeezed(t, prm.mu))
         if held is not None:
             return held
@@ -339,7 +221,7 @@ def plan_on_model(
 
     if closure:
         return budget.longest or closure[0][0]
-    budget = _ShakeBudget(FALLBACK_CHECKS, math.inf)  # quick checks, as many as FALLBACK_CHECKS
+    budget = HoldBudget(FALLBACK_CHECKS, math.inf)  # quick checks, as many as FALLBACK_CHECKS
     others = ordered(lambda c: c.near and rank_tier(c.quality) != 0)
     reached = ordered(lambda c: c.reach and not c.near and rank_tier(c.quality) == 0)
     further = ordered(lambda c: c.reach and not c.near and rank_tier(c.quality) != 0)

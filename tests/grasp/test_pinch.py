@@ -12,7 +12,8 @@ from scipy.spatial.transform import Rotation
 
 from bench.cases.exact import exact_model
 from tasks.arrays import Points
-from tasks.grasp.api import grasp_from_candidate, plan_on_model
+from tasks.grasp.api import plan_on_model
+from tasks.grasp.candidate_grasp import grasp_from_candidate
 from tasks.grasp.object_model import ObjectModel, build_object_model
 from tasks.grasp.pinch import (
     NEIGHBOUR_ROLL_RAD,

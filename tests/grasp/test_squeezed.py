@@ -10,7 +10,9 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from tasks.grasp.api import grasp_from_candidate, part_near, plan_on_model, squeezed
+from tasks.grasp.api import part_near, plan_on_model
+from tasks.grasp.candidate_grasp import grasp_from_candidate
+from tasks.grasp.hold_budget import squeezed
 from tasks.grasp.hold_check import hold_check
 from tasks.grasp.object_model import ObjectModel, build_object_model
 from tasks.grasp.planner import ApproachSpace, PlannerParams, demo_offset, is_near, is_reach
