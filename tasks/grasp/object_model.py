@@ -8,7 +8,8 @@ and unlike a triangle mesh they also work for a free (dynamic) body in the shake
 PCA normals of the k nearest neighbours, oriented by propagation along a minimum spanning tree (Hoppe et al.;
 open3d's tangent-plane orientation does the same but took 0.7 s on 1300 points
 here, this 20 ms). A box or cylinder replaces the pieces when it explains the points (``build_object_model``,
-``tasks.grasp.primitive_fit``) or when it is known (a benchmark's truth).
+``tasks.grasp.primitive_fit``) or when it is known (a benchmark's truth); on a part with a mount, the bar found in it
+(``tasks.grasp.part_cylinders``) is one exact piece, a 64-sided prism, beside the convex pieces of the rest.
 """
 
 from __future__ import annotations
