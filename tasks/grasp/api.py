@@ -106,7 +106,7 @@ def _slid(
 ) -> GraspCandidate | None:
     """The first grasp slid along the part's bar that holds firmly with a force closure (static or squeezed); the
     ones that hold loosely are added to ``loose``."""
-    found = [(c, model) for c in slide_candidates(model, seed_rot, seed_pos, prm)]
+    found = ((c, model) for c in slide_candidates(model, seed_rot, seed_pos, prm))
     budget = HoldBudget(SLIDE_CHECKS, loose=loose)
     return budget.first_that_holds(found, SLIDE_CHECKS, accept=lambda t: closed_or_squeezed(t, prm.mu))
 

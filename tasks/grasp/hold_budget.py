@@ -7,8 +7,9 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import itertools
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 
 import numpy as np
 
@@ -67,7 +68,7 @@ class HoldBudget:
 
     def first_that_holds(
         self,
-        candidates: list[Tried],
+        candidates: Iterable[Tried],
         checks: int,
         program: Callable[[FloatArray], ShakeParams] | None = None,
         accept: Callable[[Tried], GraspCandidate | None] = lambda t: t[0],
@@ -76,7 +77,7 @@ class HoldBudget:
         palm's orientation; by default ``hold_check`` with the budget's cycles) and that ``accept`` returns a grasp
         for (the candidate itself by default)."""
         check = program or functools.partial(hold_check, cycles=self.cycles)
-        for tried in candidates[:checks]:
+        for tried in itertools.islice(candidates, checks):  # a lazy iterable is only drawn as far as checked
             if self.spent():
                 break
             cand, model = tried

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Iterator
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -45,22 +46,21 @@ else sliding along it would move the palm towards or away from the part."""
 
 def slide_candidates(
     model: ObjectModel, seed_rot: FloatArray, seed_pos: Vector3, params: PlannerParams
-) -> list[GraspCandidate]:
+) -> Iterator[GraspCandidate]:
     """The grasps of the demonstrated palm (rotation (3, 3), position (3,) m, world) slid ``SLIDES_M`` either way
     along the model's bar (``ObjectModel.cylinder``, its axis projected across the approach) and held back
     ``HOLD_BACKS_M``, at ``SLIDE_SPREADS_RAD``, executed in pybullet without the approach to contact; nearest the
-    demonstrated palm first, their offsets from it. Empty without a bar or when the bar points along the
-    approach."""
+    demonstrated palm first, their offsets from it; each pose is executed only when the one before has been drawn
+    (a planner stops at the first that holds). None without a bar or when the bar points along the approach."""
     if model.cylinder is None:
-        return []
+        return
     approach = seed_rot[:, 2]
     axis = Rotation.from_quat(model.cylinder.quat_xyzw).apply([0.0, 0.0, 1.0])
     across = axis - float(axis @ approach) * approach
     if float(np.linalg.norm(across)) < MIN_ALONG:
-        return []
+        return
     across /= np.linalg.norm(across)
     space = ApproachSpace(seed_rot, seed_pos, pivot_distance(model, seed_rot, seed_pos, params.max_pivot_m))
-    found: list[GraspCandidate] = []
     poses = sorted(
         ((slide * sign, back) for slide in SLIDES_M for sign in (1.0, -1.0) for back in HOLD_BACKS_M),
         key=lambda p: math.hypot(*p),
@@ -71,8 +71,7 @@ def slide_candidates(
             (np.array([barrett.spread_amplitude(spread), 0.0, space.pivot_m + back, 0.0, 0.0]), 0.0)
             for spread in SLIDE_SPREADS_RAD
         ]
-        found += [_offset_from(c, space, params) for c in execute_states(model, shifted, picks, params, 0.0)]
-    return found
+        yield from (_offset_from(c, space, params) for c in execute_states(model, shifted, picks, params, 0.0))
 
 
 def _offset_from(cand: GraspCandidate, space: ApproachSpace, params: PlannerParams) -> GraspCandidate:

@@ -22,7 +22,7 @@ def test_slides_lie_along_the_bar_held_back_shortest_first() -> None:
     seed = centre - np.array([0.0, 0.05, 0.0])
     model = build_object_model(pts, rng, viewpoint=seed, approach=np.array([0.0, 1.0, 0.0]))
     assert model.cylinder is not None
-    found = slide_candidates(model, PALM.as_matrix(), seed, PlannerParams())
+    found = list(slide_candidates(model, PALM.as_matrix(), seed, PlannerParams()))
     assert 8 <= len(found) <= 2 * 2 * len(SLIDES_M) * len(HOLD_BACKS_M)
     moves = []
     for cand in found:
@@ -44,4 +44,4 @@ def test_no_slides_without_a_bar() -> None:
     seed = centre - np.array([0.0, 0.05, 0.0])
     model = build_object_model(pts, rng, viewpoint=seed, approach=np.array([0.0, 1.0, 0.0]), fit=False)
     assert model.cylinder is None
-    assert slide_candidates(model, PALM.as_matrix(), seed, PlannerParams()) == []
+    assert list(slide_candidates(model, PALM.as_matrix(), seed, PlannerParams())) == []
