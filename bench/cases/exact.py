@@ -1,7 +1,8 @@
 """Exact hold-test models of the benchmark's scenes and handles: the grasped part's collision shapes (boxes,
 cylinders, spheres) as the free body and the shapes around it as its mount, each shape one convex piece (a cylinder
-a 64-sided prism, 0.03 mm from the true surface at 15 mm radius; a sphere a 400-vertex hull), so that the hold test
-shakes the object as it is rather than another point-cloud model of it (``bench/grasp.py``)."""
+the 64-sided prism of ``part_cylinders.prism_vertices``, 0.03 mm from the true surface at 15 mm radius; a sphere a
+400-vertex hull), so that the hold test shakes the object as it is rather than another point-cloud model of it
+(``bench/grasp.py``)."""
 
 from __future__ import annotations
 
@@ -11,11 +12,10 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from tasks.arrays import Points
-from tasks.grasp.object_model import ObjectModel
+from tasks.grasp.object_model import ObjectModel, PrimitiveShape
+from tasks.grasp.part_cylinders import prism_vertices
 from tasks.scenes.surface import WorldShape, sample_shapes
 
-PRISM_SIDES = 64
-"""Sides of the prism standing for a cylinder."""
 SPHERE_VERTICES = 400
 """Vertices (a Fibonacci lattice) of the hull standing for a sphere."""
 SURFACE_POINTS = 3000
@@ -28,13 +28,9 @@ def hull_vertices(shape: WorldShape) -> Points:
         half = np.asarray(shape.size, dtype=np.float64) / 2.0
         corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=np.float64)
         local = corners * half
-    elif shape.kind == "cylinder":
+    elif shape.kind == "cylinder":  # the prism the planner plans a bar on (``part_cylinders.prism_vertices``)
         radius, length = shape.size
-        theta = np.linspace(0.0, 2.0 * math.pi, PRISM_SIDES, endpoint=False)
-        ring = np.column_stack([radius * np.cos(theta), radius * np.sin(theta)])
-        local = np.concatenate(
-            [np.column_stack([ring, np.full(PRISM_SIDES, z)]) for z in (-length / 2.0, length / 2.0)]
-        )
+        local = prism_vertices(PrimitiveShape("cylinder", (radius, length / 2.0, 0.0), (0.0, 0.0, 0.0)))
     elif shape.kind == "sphere":
         i = np.arange(SPHERE_VERTICES) + 0.5
         polar = np.arccos(1.0 - 2.0 * i / SPHERE_VERTICES)

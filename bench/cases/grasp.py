@@ -120,9 +120,10 @@ def scene_cases(seeds: range) -> list[Case]:
                 return build_object_model(part_near(fresh, palm), rng, viewpoint=palm)
 
             orientation = np.array(grasp.wrist_orientation)
-            part = grasped_shapes(scene)
+            shapes = model_shapes(scene)
+            part = grasped_shapes(scene, shapes)
             held = _part_resample(scene, part, palm)
-            exact = _exact_scene(scene, part, palm)
+            exact = _exact_scene(shapes, part, palm)
             cases.append(Case(f"{name} seed {seed}", pts, palm, orientation, exact, held, rescan))
     return cases
 
@@ -156,33 +157,29 @@ MOUNT_REACH_M = 0.18
 mount (the scan crop of ``part_near`` reaches 15 cm from the point nearest the palm)."""
 
 
-def _exact_scene(scene: Scene, part: list[WorldShape], palm: np.ndarray) -> Resample:
-    """The grasped part's exact shapes on the scene's other shapes near the palm (``exact.exact_model``)."""
-    keys = {(s.link, s.kind, s.size, tuple(np.round(s.translation, 6))) for s in part}
-    mount = [
-        s
-        for s in model_shapes(scene)
-        if (s.link, s.kind, s.size, tuple(np.round(s.translation, 6))) not in keys
-        and distance_to(s, palm) <= MOUNT_REACH_M
-    ]
+def _exact_scene(shapes: list[WorldShape], part: list[WorldShape], palm: np.ndarray) -> Resample:
+    """The grasped part's exact shapes (``part``, some of the scene's ``shapes``) on the scene's other shapes near the
+    palm (``exact.exact_model``)."""
+    mount = [s for s in shapes if all(s is not p for p in part) and distance_to(s, palm) <= MOUNT_REACH_M]
     return lambda rng: exact_model(part, mount, rng)
 
 
-def grasped_shapes(scene: Scene) -> list[WorldShape]:
+def grasped_shapes(scene: Scene, shapes: list[WorldShape] | None = None) -> list[WorldShape]:
     """The collision shapes (world, at the demonstration's start) of what the hand holds: the grasp link's shapes
     no longer than ``PART_MAX_EXTENT_M`` (the microwave's and the sliding door's bar handle, the door's lever with
-    its rose, the bottle's cap)."""
+    its rose, the bottle's cap), taken from ``shapes`` (the scene's ``model_shapes``, built when None)."""
 
     def extent(shape: WorldShape) -> float:
         if shape.kind == "cylinder":
             return max(2.0 * shape.size[0], shape.size[1])
         return 2.0 * shape.size[0] if shape.kind == "sphere" else max(shape.size)
 
-    shapes = [s for s in model_shapes(scene) if s.link == scene.grasp_link and extent(s) <= PART_MAX_EXTENT_M]
-    if not shapes:
+    every = model_shapes(scene) if shapes is None else shapes
+    part = [s for s in every if s.link == scene.grasp_link and extent(s) <= PART_MAX_EXTENT_M]
+    if not part:
         msg = f"scene {scene.name}: no shape of grasp link {scene.grasp_link} is {PART_MAX_EXTENT_M} m or shorter"
         raise ValueError(msg)
-    return shapes
+    return part
 
 
 def random_cases(count: int, rng: np.random.Generator) -> list[Case]:

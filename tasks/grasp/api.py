@@ -108,7 +108,7 @@ def _slid(
     ones that hold loosely are added to ``loose``."""
     found = ((c, model) for c in slide_candidates(model, seed_rot, seed_pos, prm))
     budget = HoldBudget(SLIDE_CHECKS, loose=loose)
-    return budget.first_that_holds(found, SLIDE_CHECKS, accept=lambda t: closed_or_squeezed(t, prm.mu))
+    return budget.first_that_holds(found, SLIDE_CHECKS, accept=functools.partial(closed_or_squeezed, mu=prm.mu))
 
 
 def _pinch(model: ObjectModel, seed_rot: FloatArray, seed_pos: Vector3, prm: PlannerParams) -> GraspCandidate | None:
@@ -116,9 +116,7 @@ def _pinch(model: ObjectModel, seed_rot: FloatArray, seed_pos: Vector3, prm: Pla
     static or squeezed; when one held without any, the first of its neighbours (``pinch.pinch_neighbours``) that
     does; else None."""
 
-    def closed(tried: Tried) -> GraspCandidate | None:
-        return closed_or_squeezed(tried, prm.mu)
-
+    closed = functools.partial(closed_or_squeezed, mu=prm.mu)
     budget = HoldBudget(PINCH_CHECKS)
     found = pinch_candidates(model, seed_rot, seed_pos, prm)
     pinched = budget.first_that_holds([(c, model) for c in found], PINCH_CHECKS, accept=closed)
@@ -157,9 +155,9 @@ def plan_on_model(
     seed_rot = Rotation.from_quat(quat).as_matrix()
     # a fitted primitive is cheap to shake: checks as long as the benchmark's program
     loose: list[GraspCandidate] = []
-    firm = loose if model.cylinder is not None else None  # a round bar may roll out of a grasp that held 6 s
+    kept_back = loose if model.cylinder is not None else None  # a round bar may roll out of a grasp that held 6 s
     budget = HoldBudget(
-        SHAKE_BUDGET, cycles=CHECK_CYCLES if model.primitive is None else PRIMITIVE_CHECK_CYCLES, loose=firm
+        SHAKE_BUDGET, cycles=CHECK_CYCLES if model.primitive is None else PRIMITIVE_CHECK_CYCLES, loose=kept_back
     )
     tried: list[Tried] = []
     closure: list[Tried] = []
@@ -194,7 +192,7 @@ def plan_on_model(
             dynamic = [
                 t for t in found if t[0].near and rank_tier(t[0].quality) != 0 and t[0].angle_rad <= CHECK_MAX_ANGLE_RAD
             ]
-            extra = HoldBudget(DYNAMIC_CHECKS, cycles=budget.cycles, loose=firm)  # most fail within 0.1 s
+            extra = HoldBudget(DYNAMIC_CHECKS, cycles=budget.cycles, loose=kept_back)  # most fail within 0.1 s
             held = extra.first_that_holds(dynamic, DYNAMIC_CHECKS, accept=lambda t: squeezed(t, prm.mu))
         if held is not None:
             return held

@@ -24,10 +24,9 @@ from tasks.grasp.shake import ShakeParams, shake_test
 CHECK_BUDGET_S = 20.0
 """Simulated seconds of shaking the hold checks of one plan (``api.SHAKE_BUDGET`` of them) may take in all (a
 check stops when the part slips; one that holds takes ``CHECK_LENGTH_S``, 0.08-0.12 s CPU per simulated second on a
-scan's convex pieces). A further round is
-searched, and a check started, only while a whole check still fits in what is left. At 13 s, two slips after 3.6
-and 4.9 s left a box no room for a third check, and door seed 0's squeezed-grasp pass ran out before the grasp
-that held."""
+scan's convex pieces). A further round is searched, and a check started, only while a whole check still fits in what
+is left. At 13 s, two slips after 3.6 and 4.9 s left a box no room for a third check, and door seed 0's squeezed-grasp
+pass ran out before the grasp that held."""
 FIRM_SHIFT_M = 0.0025
 FIRM_TURN_RAD = math.radians(2.5)
 """On a part planned on its bar: a grasp that held under the check but let the part move or turn more than these
