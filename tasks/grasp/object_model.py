@@ -398,8 +398,10 @@ def load_object(client_id: int, model: ObjectModel, *, mass_kg: float = 0.0, fri
         if not model.parts:
             msg = "object model has no collision parts"
             raise GraspError(msg)
-        volumes = np.array([max(_hull_volume(p), 1e-9) for p in model.parts])
-        masses = mass_kg * volumes / volumes.sum()
+        masses = np.zeros(len(model.parts))  # static: no hulls to compute (most loads in a plan are)
+        if mass_kg > 0.0:  # the mass spread over the pieces by their hull volumes
+            volumes = np.array([max(_hull_volume(p), 1e-9) for p in model.parts])
+            masses = mass_kg * volumes / volumes.sum()
         shapes = []
         centres = []
         for part in model.parts:
