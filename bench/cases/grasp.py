@@ -4,6 +4,7 @@ benchmark's hold program (``hold_program``), all drawn from generators of the be
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -228,8 +229,9 @@ def random_cases(count: int, rng: np.random.Generator) -> list[Case]:
             as_one = _handle_resample(r, length, standoff, vertical, plate=True)
         pos, quat = palm_seed(face, approach, rng.uniform(0.02, 0.06), rng, along)
         if kind == "handle":
-            shapes = handle_shapes(r, length, standoff, vertical)
-            cases.append(Case(name, pts, pos, quat, lambda g, s=shapes: exact_model(*s, g), truth, as_one))
+            part, mount = handle_shapes(r, length, standoff, vertical)
+            exact = functools.partial(exact_model, part, mount)
+            cases.append(Case(name, pts, pos, quat, exact, truth, as_one))
         else:
             cases.append(Case(name, pts, pos, quat, truth))
     return cases
