@@ -31,7 +31,7 @@ from schemas.descriptor import Grasp
 from tasks.arrays import FloatArray, Points, Vector3
 from tasks.errors import GraspError
 from tasks.grasp.candidate_grasp import grasp_from_candidate
-from tasks.grasp.hold_budget import HoldBudget, Tried, closed_or_squeezed, squeezed
+from tasks.grasp.hold_budget import HoldBudget, Tried, closed_or_squeezed, held_closure, squeezed
 from tasks.grasp.hold_check import (
     CHECK_CYCLES,
     PRIMITIVE_CHECK_CYCLES,
@@ -105,32 +105,43 @@ def redecomposed(model: ObjectModel, rng: np.random.Generator) -> ObjectModel:
     return model.with_pieces(rng)
 
 
-def _slid(
-    model: ObjectModel, seed_rot: FloatArray, seed_pos: Vector3, prm: PlannerParams, loose: list[GraspCandidate]
+def _slid(  # noqa: PLR0917 -- model, seed pose, params, two sinks
+    model: ObjectModel,
+    seed_rot: FloatArray,
+    seed_pos: Vector3,
+    prm: PlannerParams,
+    loose: list[GraspCandidate],
+    held: list[GraspCandidate],
 ) -> GraspCandidate | None:
     """The first grasp slid along the part's bar that holds firmly with a force closure (static or squeezed); the
-    ones that hold loosely are added to ``loose``."""
+    ones that hold loosely are added to ``loose``, those that hold without a force closure to ``held``."""
     found = ((c, model) for c in slide_candidates(model, seed_rot, seed_pos, prm))
     budget = HoldBudget(SLIDE_CHECKS, loose=loose)
-    return budget.first_that_holds(found, SLIDE_CHECKS, accept=functools.partial(closed_or_squeezed, mu=prm.mu))
+    slid = budget.first_that_holds(found, SLIDE_CHECKS, accept=functools.partial(closed_or_squeezed, mu=prm.mu))
+    held += budget.unaccepted
+    return slid
 
 
-def _pinch(model: ObjectModel, seed_rot: FloatArray, seed_pos: Vector3, prm: PlannerParams) -> GraspCandidate | None:
+def _pinch(
+    model: ObjectModel, seed_rot: FloatArray, seed_pos: Vector3, prm: PlannerParams, held: list[GraspCandidate]
+) -> GraspCandidate | None:
     """The first fingertip pinch (``pinch.pinch_candidates``) that holds under ``hold_check`` with a force closure,
     static or squeezed; when one held without any, the first of its neighbours (``pinch.pinch_neighbours``) that
-    does; then the first of the pinches rolled ``pinch.ROLLED_PINCH_RAD`` that does; else None."""
+    does; then the first of the pinches rolled ``pinch.ROLLED_PINCH_RAD`` that does; else None. The pinches that
+    held without a force closure are added to ``held``."""
 
     closed = functools.partial(closed_or_squeezed, mu=prm.mu)
     budget = HoldBudget(PINCH_CHECKS)
     found = pinch_candidates(model, seed_rot, seed_pos, prm)
     pinched = budget.first_that_holds([(c, model) for c in found], PINCH_CHECKS, accept=closed)
+    held += budget.unaccepted
     if pinched is not None:
         return pinched
     if budget.unaccepted:
         near = pinch_neighbours(model, seed_rot, seed_pos, prm, budget.unaccepted[0])
-        held = HoldBudget(NEIGHBOUR_CHECKS).first_that_holds(_closed(near, model, prm.mu), NEIGHBOUR_CHECKS)
-        if held is not None:
-            return held
+        neighbour = HoldBudget(NEIGHBOUR_CHECKS).first_that_holds(_closed(near, model, prm.mu), NEIGHBOUR_CHECKS)
+        if neighbour is not None:
+            return neighbour
     rolled = pinch_candidates(model, seed_rot, seed_pos, prm, rolls_rad=ROLLED_PINCH_RAD)
     return HoldBudget(ROLLED_PINCH_CHECKS).first_that_holds(_closed(rolled, model, prm.mu), ROLLED_PINCH_CHECKS)
 
@@ -164,7 +175,9 @@ def plan_on_model(
     force closure that hold and show one once squeezed, ``DYNAMIC_CHECKS``, and so on a fitted primitive; on a mounted
     part still without one, the fingertip pinches, ``_pinch``; on a part planned on its bar, a grasp that held loosely,
     ``hold_budget.FIRM_SHIFT_M``, is kept back for the later passes and the grasps slid along the bar, ``_slid``, and
-    returned before the pinches when none holds firmly). When none holds: the checked force closure that lasted longest,
+    returned before the pinches when none holds firmly); then the first grasp that held without a force closure at
+    ``params.mu`` whose squeezed contacts show one at the hold check's friction, ``hold_budget.held_closure``. When
+    none holds: the checked force closure that lasted longest,
     else the first near force closure. Without any near force closure (nothing within reach of the demonstrated palm),
     up to ``FALLBACK_CHECKS`` under ``QUICK_SHAKE`` of: the force closures reached further along the demonstrated
     approach, the other near grasps, the other reached ones; when none holds, the first reached force closure, else the
@@ -180,6 +193,7 @@ def plan_on_model(
     )
     tried: list[Tried] = []
     closure: list[Tried] = []
+    without_closure: list[GraspCandidate] = []  # held under the check, no force closure at prm.mu even squeezed
     prm = params or PlannerParams()
     for k in range(ROUNDS + REDRAWS):
         if k == ROUNDS and not tried:
@@ -213,22 +227,26 @@ def plan_on_model(
             ]
             extra = HoldBudget(DYNAMIC_CHECKS, cycles=budget.cycles, loose=kept_back)  # most fail within 0.1 s
             held = extra.first_that_holds(dynamic, DYNAMIC_CHECKS, accept=lambda t: squeezed(t, prm.mu))
+            without_closure += extra.unaccepted
         if held is not None:
             return held
         if closure and budget.spent():
             break
     if model.cylinder is not None:  # a bar: held anywhere along it
         slid_loose: list[GraspCandidate] = []
-        slid = _slid(model, seed_rot, pos, prm, slid_loose)
+        slid = _slid(model, seed_rot, pos, prm, slid_loose, without_closure)
         if slid is not None:
             return slid
         loose += slid_loose
     if loose:
         return loose[0]
     if model.mount is not None:  # a handle or lever whose mount may stop the fingers wrapping it
-        pinched = _pinch(model, seed_rot, pos, prm)
+        pinched = _pinch(model, seed_rot, pos, prm, without_closure)
         if pinched is not None:
             return pinched
+    held_fc = held_closure(without_closure, model)  # a grasp that held, in force closure at the check's friction
+    if held_fc is not None:
+        return held_fc
     if not tried:
         msg = "no collision-free grasp found near the seed pose"
         raise GraspError(msg)

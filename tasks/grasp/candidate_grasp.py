@@ -29,6 +29,7 @@ def grasp_from_candidate(candidate: GraspCandidate) -> Grasp:
             "volume": q.volume,
             "force_closure": q.force_closure,
             "contacts": q.contacts,
+            "mu": q.mu,
             "closed_dofs": [float(candidate.closed[0]), *(float(v) for v in candidate.closed[1:4])],
             "demo_offset_m": candidate.offset_m,
             "demo_angle_rad": candidate.angle_rad,

@@ -33,13 +33,16 @@ DEFAULT_MU = 0.5
 @dataclass(frozen=True)
 class GraspQuality:
     """Epsilon (L1 GWS, unitless), force closure, the number of contacts used, and the (8 m, 6) edge wrenches;
-    ``volume`` of the GWS on first use (``hull_volume`` when the hull was already built)."""
+    ``volume`` of the GWS on first use (``hull_volume`` when the hull was already built); ``mu`` the friction
+    coefficient they were computed with."""
 
     epsilon: float
     force_closure: bool
     contacts: int
     wrenches: FloatArray = field(default_factory=lambda: np.zeros((0, 6)), repr=False, compare=False)
     hull_volume: float | None = field(default=None, repr=False, compare=False)
+    mu: float = DEFAULT_MU
+    """The friction coefficient of the contacts' cones."""
 
     @cached_property
     def volume(self) -> float:
@@ -72,17 +75,17 @@ def grasp_quality(
     """Epsilon and volume of the grasp wrench space of the contacts (see module docstring)."""
     count = len(positions)
     if count == 0:
-        return GraspQuality(0.0, False, 0)
+        return GraspQuality(0.0, False, 0, mu=mu)
     wrenches = contact_wrenches(positions, normals_in, center, radius, mu)
     if not _origin_in_hull(wrenches):
-        return GraspQuality(0.0, False, count, wrenches)
+        return GraspQuality(0.0, False, count, wrenches, mu=mu)
     hull = _hull(wrenches)
     if hull is None:
-        return GraspQuality(0.0, False, count, wrenches, 0.0)
+        return GraspQuality(0.0, False, count, wrenches, 0.0, mu=mu)
     # facets: normal·x + offset <= 0 inside, unit normals; the origin's distance to a facet is -offset
     epsilon = float(np.min(-hull.equations[:, -1]))
     closure = epsilon > 1e-9
-    return GraspQuality(max(epsilon, 0.0), closure, count, wrenches, float(hull.volume))
+    return GraspQuality(max(epsilon, 0.0), closure, count, wrenches, float(hull.volume), mu=mu)
 
 
 def _hull(wrenches: FloatArray) -> ConvexHull | None:
