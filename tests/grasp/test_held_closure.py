@@ -8,15 +8,11 @@ import math
 
 import numpy as np
 import pytest
-from scipy.spatial.transform import Rotation
 
-from bench.cases.grasp import hold_program, random_cases
-from tasks.grasp.api import part_near, plan_on_model
 from tasks.grasp.candidate_grasp import grasp_from_candidate
 from tasks.grasp.hold_budget import HELD_MU, held_closure
-from tasks.grasp.object_model import build_object_model
 from tasks.grasp.quality import DEFAULT_MU
-from tasks.grasp.shake import shake_test
+from tests.grasp.bench_object import plan_bench_object
 from tests.grasp.lying_cylinder import closed_above, lying_cylinder
 
 
@@ -36,17 +32,9 @@ def test_benchmark_cylinder_held_only_without_closure_at_the_planners_friction()
     """The benchmark's upright cylinder r20 (seed 7): of its near grasps the one that holds under the planner's
     check has no force closure at 0.5, even squeezed; at the check's friction it has one, and it holds the exact
     cylinder under the benchmark's test."""
-    seed = 7
-    cases = random_cases(21, np.random.default_rng(seed))
-    index = next(i for i, c in enumerate(cases) if c.name == "cylinder r20 h168mm upright")
-    case = cases[index]
-    part = part_near(case.points, case.seed_pos)
-    approach = Rotation.from_quat(case.seed_quat).as_matrix()[:, 2]
-    model = build_object_model(part, np.random.default_rng(seed), viewpoint=case.seed_pos, approach=approach)
-    grasp = grasp_from_candidate(plan_on_model(model, case.seed_pos, case.seed_quat, np.random.default_rng(seed)))
+    planned = plan_bench_object(7, "cylinder r20 h168mm upright")
+    grasp = planned.grasp
     assert grasp.quality["force_closure"] is True and grasp.quality["mu"] == HELD_MU
     assert grasp.quality["epsilon"] > 0.0
     assert math.degrees(grasp.quality["demo_angle_rad"]) == pytest.approx(15.0, abs=0.5)
-    bench_index = 12 + index  # the benchmark's rows: three seeds of each of the four scenes first
-    exact = case.truth(np.random.default_rng([seed, 3, bench_index]))
-    assert shake_test(exact, grasp, hold_program(np.random.default_rng([seed, 2, bench_index]))).holds
+    assert planned.holds
