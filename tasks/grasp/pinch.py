@@ -61,9 +61,9 @@ def pinch_candidates(
 ROLLED_PINCH_RAD = (math.radians(-15.0), math.radians(15.0))
 """Rolls (rad) about the demonstrated approach of the last pinches tried (the demonstrated approach's rolls,
 ``planner.LINE_POSES``). On the benchmark's handle r13 l128 (seed 7) the pinches of the demonstrated palm that held
-showed no force closure, even squeezed, nor did their neighbours; the pinch from 90 mm rolled -15° at spread π/2
-held under the planner's check within 0.6 mm and 0.8° with a static force closure, and on the exact handle under
-the benchmark's test (``probe-s11/neigh_fc.py``)."""
+showed no force closure, even squeezed, nor did their neighbours; of its 20 rolled pinches six showed one, two of
+those held under the planner's check (the one from 90 mm rolled -15° within 0.6 mm and 0.8°), and both held the
+exact handle under the benchmark's test."""
 NEIGHBOUR_STEP_M = 0.005
 NEIGHBOUR_ROLL_RAD = math.radians(15.0)
 """Steps of ``pinch_neighbours``: the palm 5 mm nearer or farther on the approach, rolled 15° either way about it
