@@ -80,7 +80,7 @@ held, one of these pinches (from 70-90 mm) held under the planner's check and un
 SLIDE_CHECKS = 16
 """On a mounted part whose bar was found (``ObjectModel.cylinder``), when no grasp near the demonstration holds it
 firmly: hold checks, with a budget of their own, of the grasps slid along the bar (``slide.py``; most fail within
-0.1 s simulated), before the loose near grasp and the pinches."""
+0.1 s simulated), before the firm pinches and the loose near grasp."""
 ROLLED_PINCH_CHECKS = 6
 """When no pinch of the demonstrated palm nor any of its neighbours holds with a force closure: hold checks of the
 pinches rolled ``pinch.ROLLED_PINCH_RAD``, only of those with a force closure (static or squeezed, about 0.02 s CPU
@@ -123,15 +123,22 @@ def _slid(  # noqa: PLR0917 -- model, seed pose, params, two sinks
 
 
 def _pinch(
-    model: ObjectModel, seed_rot: FloatArray, seed_pos: Vector3, prm: PlannerParams, held: list[GraspCandidate]
+    model: ObjectModel,
+    seed_rot: FloatArray,
+    seed_pos: Vector3,
+    prm: PlannerParams,
+    held: list[GraspCandidate],
+    *,
+    loose: list[GraspCandidate] | None = None,
 ) -> GraspCandidate | None:
     """The first fingertip pinch (``pinch.pinch_candidates``) that holds under ``hold_check`` with a force closure,
     static or squeezed; when one held without any, the first of its neighbours (``pinch.pinch_neighbours``) that
     does; then the first of the pinches rolled ``pinch.ROLLED_PINCH_RAD`` that does; else None. The pinches that
-    held without a force closure are added to ``held``."""
+    held without a force closure are added to ``held``; when ``loose`` is given, only a firm pinch is returned
+    (``hold_budget.FIRM_SHIFT_M``) and the loose ones are added to it."""
 
     closed = functools.partial(closed_or_squeezed, mu=prm.mu)
-    budget = HoldBudget(PINCH_CHECKS)
+    budget = HoldBudget(PINCH_CHECKS, loose=loose)
     found = pinch_candidates(model, seed_rot, seed_pos, prm)
     pinched = budget.first_that_holds([(c, model) for c in found], PINCH_CHECKS, accept=closed)
     held += budget.unaccepted
@@ -139,11 +146,13 @@ def _pinch(
         return pinched
     if budget.unaccepted:
         near = pinch_neighbours(model, seed_rot, seed_pos, prm, budget.unaccepted[0])
-        neighbour = HoldBudget(NEIGHBOUR_CHECKS).first_that_holds(_closed(near, model, prm.mu), NEIGHBOUR_CHECKS)
+        neighbours = HoldBudget(NEIGHBOUR_CHECKS, loose=loose)
+        neighbour = neighbours.first_that_holds(_closed(near, model, prm.mu), NEIGHBOUR_CHECKS)
         if neighbour is not None:
             return neighbour
     rolled = pinch_candidates(model, seed_rot, seed_pos, prm, rolls_rad=ROLLED_PINCH_RAD)
-    return HoldBudget(ROLLED_PINCH_CHECKS).first_that_holds(_closed(rolled, model, prm.mu), ROLLED_PINCH_CHECKS)
+    rolled_budget = HoldBudget(ROLLED_PINCH_CHECKS, loose=loose)
+    return rolled_budget.first_that_holds(_closed(rolled, model, prm.mu), ROLLED_PINCH_CHECKS)
 
 
 def _closed(candidates: Iterable[GraspCandidate], model: ObjectModel, mu: float) -> Iterator[Tried]:
@@ -175,7 +184,7 @@ def plan_on_model(
     force closure that hold and show one once squeezed, ``DYNAMIC_CHECKS``, and so on a fitted primitive; on a mounted
     part still without one, the fingertip pinches, ``_pinch``; on a part planned on its bar, a grasp that held loosely,
     ``hold_budget.FIRM_SHIFT_M``, is kept back for the later passes and the grasps slid along the bar, ``_slid``, and
-    returned before the pinches when none holds firmly); then the first grasp that held without a force closure at
+    returned when none of them, nor any pinch, holds firmly); then the first grasp that held without a force closure at
     ``params.mu`` whose squeezed contacts show one at the hold check's friction, ``hold_budget.held_closure``. When
     none holds: the checked force closure that lasted longest,
     else the first near force closure. Without any near force closure (nothing within reach of the demonstrated palm),
@@ -238,8 +247,9 @@ def plan_on_model(
         if slid is not None:
             return slid
         loose += slid_loose
-    if loose:
-        return loose[0]
+    if loose:  # the near grasp that held loosely, unless a pinch holds firmly
+        pinched = _pinch(model, seed_rot, pos, prm, without_closure, loose=[]) if model.mount is not None else None
+        return pinched or loose[0]
     if model.mount is not None:  # a handle or lever whose mount may stop the fingers wrapping it
         pinched = _pinch(model, seed_rot, pos, prm, without_closure)
         if pinched is not None:
