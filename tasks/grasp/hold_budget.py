@@ -31,9 +31,9 @@ FIRM_SHIFT_M = 0.0025
 FIRM_TURN_RAD = math.radians(2.5)
 """On a part planned on its bar: a grasp that held under the check but let the part move or turn more than these
 (half the check's tolerances) is kept back while a firmer one may be found (the later passes, then the grasps slid
-along the bar), and chosen only when none is. Three fingertips on a door lever's round arm turned it 3.4-3.7° in
-the 6 s check and past 10° in the benchmark's 16 s; slid 25 mm along the arm and held back 20 mm, the grasp that
-held turned it 1-2°."""
+along the bar, then the pinches), and chosen only when none is. Three fingertips on a door lever's round arm
+turned it 3.4-3.7° in the 6 s check and past 10° in the benchmark's 16 s; slid 25 mm along the arm and held back
+20 mm, the grasp that held turned it 1-2°."""
 HELD_MU = 0.8
 """Friction coefficient of the hold check's contacts: the part's 0.8 (``shake.ShakeParams.friction``) times the
 finger pads' 1.0, as Bullet combines them. The planner's qualities use ``quality.DEFAULT_MU`` (0.5); a grasp that
