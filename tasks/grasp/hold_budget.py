@@ -9,7 +9,7 @@ import dataclasses
 import functools
 import itertools
 import math
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 
 import numpy as np
 
@@ -117,14 +117,20 @@ def closed_or_squeezed(tried: Tried, mu: float) -> GraspCandidate | None:
     return tried[0] if rank_tier(tried[0].quality) == 0 else squeezed(tried, mu)
 
 
+def with_closure(candidates: Iterable[GraspCandidate], model: ObjectModel, mu: float) -> Iterator[Tried]:
+    """The candidates with a force closure at friction ``mu``, static or squeezed (``closed_or_squeezed``), each with
+    ``model``, found lazily: squeezing one (about 0.02 s CPU) costs less than checking one that holds without a
+    force closure (6 s simulated, about 0.4 s CPU)."""
+    for cand in candidates:
+        closed = closed_or_squeezed((cand, model), mu)
+        if closed is not None:
+            yield closed, model
+
+
 def held_closure(held: Iterable[GraspCandidate], model: ObjectModel) -> GraspCandidate | None:
     """The first of ``held`` (grasps that held under the hold check without a force closure, even squeezed, at the
-    planner's friction) whose squeezed contacts (``squeezed``) show one at the check's own friction ``HELD_MU``,
-    its qualities at that friction (``GraspQuality.mu``); else None. The benchmark's upright cylinder r20 (seed 7):
-    a near grasp held within 2.0 mm and 2.1° under the 15 s check, no force closure at 0.5, epsilon 0.023 at 0.8,
-    and it held the benchmark's test."""
-    for cand in held:
-        closed = squeezed((cand, model), HELD_MU)
-        if closed is not None:
-            return closed
-    return None
+    planner's friction) that shows one at the check's own friction ``HELD_MU`` (``with_closure``), its qualities at
+    that friction (``GraspQuality.mu``); else None. The benchmark's upright cylinder r20 (seed 7): a near grasp held
+    within 2.0 mm and 2.1° under the 15 s check, no force closure at 0.5, epsilon 0.023 at 0.8, and it held the
+    benchmark's test."""
+    return next((cand for cand, _ in with_closure(held, model, HELD_MU)), None)

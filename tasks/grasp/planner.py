@@ -337,10 +337,13 @@ def execute_states(
     picks: list[tuple[FloatArray, float]],
     params: PlannerParams,
     approach_max_m: float | None = None,
+    *,
+    demo: ApproachSpace | None = None,
 ) -> list[GraspCandidate]:
     """Execute each (state, energy) of ``picks`` in pybullet (``evaluate_pose``; the approach to contact up to
     ``approach_max_m`` m, ``params.approach_max_m`` when None) and return the candidates in the same order (those
-    still in collision left out), with their offsets from the demonstration."""
+    still in collision left out), with their offsets from the demonstration: ``demo``'s palm, ``space``'s when
+    None."""
     run_prm = params if approach_max_m is None else dataclasses.replace(params, approach_max_m=approach_max_m)
     focus = space.seed_pos + space.seed_rot[:, 2] * space.pivot_m
     client = pb.connect(pb.DIRECT)
@@ -355,7 +358,7 @@ def execute_states(
             if result is None:
                 continue
             final_pos, _, closed, quality = result
-            offset = demo_offset(rot, final_pos, space, params)
+            offset = demo_offset(rot, final_pos, demo or space, params)
             out.append(
                 GraspCandidate(
                     x.copy(),

@@ -11,7 +11,6 @@ an approach to contact, as the hold test closes them.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from collections.abc import Iterator
 
@@ -21,17 +20,7 @@ from scipy.spatial.transform import Rotation
 from tasks.arrays import FloatArray, Vector3
 from tasks.grasp import barrett
 from tasks.grasp.object_model import ObjectModel
-from tasks.grasp.planner import (
-    ApproachSpace,
-    GraspCandidate,
-    PlannerParams,
-    closeness,
-    demo_offset,
-    execute_states,
-    is_near,
-    is_reach,
-    pivot_distance,
-)
+from tasks.grasp.planner import ApproachSpace, GraspCandidate, PlannerParams, execute_states, pivot_distance
 
 SLIDES_M = (0.025, 0.05)
 """Distances (m) the palm is slid along the bar, either way, nearest first."""
@@ -71,18 +60,4 @@ def slide_candidates(
             (np.array([barrett.spread_amplitude(spread), 0.0, space.pivot_m + back, 0.0, 0.0]), 0.0)
             for spread in SLIDE_SPREADS_RAD
         ]
-        yield from (_offset_from(c, space, params) for c in execute_states(model, shifted, picks, params, 0.0))
-
-
-def _offset_from(cand: GraspCandidate, space: ApproachSpace, params: PlannerParams) -> GraspCandidate:
-    """``cand`` with its offsets and closeness measured from the demonstrated palm (``space``)."""
-    rot = Rotation.from_quat(cand.quat_xyzw).as_matrix()
-    offset = demo_offset(rot, cand.position, space, params)
-    return dataclasses.replace(
-        cand,
-        closeness=closeness(offset, params),
-        offset_m=offset.lateral_m,
-        angle_rad=offset.angle_rad,
-        near=is_near(offset, params),
-        reach=is_reach(offset, params),
-    )
+        yield from execute_states(model, shifted, picks, params, 0.0, demo=space)
