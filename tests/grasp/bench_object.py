@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from bench.cases.grasp import hold_program, random_cases
+from bench.cases.grasp import Case, hold_program, random_cases, scene_cases
 from schemas.descriptor import Grasp
 from tasks.arrays import FloatArray
 from tasks.grasp.api import part_near, plan_on_model
@@ -36,12 +36,22 @@ def plan_bench_object(seed: int, name: str) -> PlannedObject:
     does and shake the grasp on its exact shapes with the row's program."""
     cases = random_cases(21, np.random.default_rng(seed))
     index = next(i for i, c in enumerate(cases) if c.name == name)
-    case = cases[index]
+    return _planned(cases[index], seed, SCENE_ROWS + index)
+
+
+def plan_bench_scene(seed: int, name: str) -> PlannedObject:
+    """Plan the benchmark's scene instance ``name`` (``"microwave seed 1"``: scene seeds 0-2) as ``bench/grasp.py``
+    does with benchmark seed ``seed`` and shake the grasp on its exact shapes with the row's program."""
+    cases = scene_cases(range(SCENE_ROWS // 4))
+    row = next(i for i, c in enumerate(cases) if c.name == name)
+    return _planned(cases[row], seed, row)
+
+
+def _planned(case: Case, seed: int, row: int) -> PlannedObject:
     part = part_near(case.points, case.seed_pos)
     approach = Rotation.from_quat(case.seed_quat).as_matrix()[:, 2]
     model = build_object_model(part, np.random.default_rng(seed), viewpoint=case.seed_pos, approach=approach)
     grasp = grasp_from_candidate(plan_on_model(model, case.seed_pos, case.seed_quat, np.random.default_rng(seed)))
-    row = SCENE_ROWS + index
     exact = case.truth(np.random.default_rng([seed, 3, row]))
     holds = shake_test(exact, grasp, hold_program(np.random.default_rng([seed, 2, row]))).holds
     return PlannedObject(grasp, approach, np.asarray(case.seed_pos, dtype=np.float64), holds)
