@@ -48,6 +48,7 @@ def plan_bench_scene(seed: int, name: str) -> PlannedObject:
 
 
 def _planned(case: Case, seed: int, row: int) -> PlannedObject:
+    """``case`` planned as ``bench/grasp.py``'s run for ``seed`` plans its row ``row``, and its hold test there."""
     part = part_near(case.points, case.seed_pos)
     approach = Rotation.from_quat(case.seed_quat).as_matrix()[:, 2]
     model = build_object_model(part, np.random.default_rng(seed), viewpoint=case.seed_pos, approach=approach)
