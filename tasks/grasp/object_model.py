@@ -48,9 +48,6 @@ this long (a palm buried in the object has points all around it: then it is igno
 MIN_PIECE_POINTS = 6
 """Fewest points of a piece made by a split."""
 
-SOLID_DEPTH_M = 0.0015
-"""A connected group of a mounted part's points off its bar (``solid_pieces``) is one solid convex piece when 95 %
-of its points lie within this of its hull's boundary: the tolerance ``primitive_fit`` fits a box or cylinder to."""
 GROUP_SPACINGS = 3.0
 """Points within this many median point spacings of each other belong to one group (``solid_pieces``)."""
 
@@ -377,7 +374,7 @@ def _part_pieces(
 def solid_pieces(points: Points, normals: Points, rng: np.random.Generator) -> tuple[Points, ...]:
     """Convex pieces (hull vertices, (k, 3) m, world) of the points of a mounted part its bar leaves unexplained
     (``_part_pieces``): per connected group (``GROUP_SPACINGS``), the group's hull thickened inwards as one solid
-    piece when its points lie on that hull (``SOLID_DEPTH_M``: a handle's post), else its k-means pieces
+    piece when its points lie on that hull (``_on_hull``: a handle's post), else its k-means pieces
     (``convex_parts``: a lever's rose and neck). A scan sees a post's faces, not its inside: cut into k-means
     patches, each 5 mm thick, the microwave handle's posts (boxes of 28 cm³) weighed about 15 cm³ in the hold
     check and let a grasp hold that turned the exact handle 10°; groups of fewer than ``MIN_PIECE_POINTS`` points
@@ -392,18 +389,25 @@ def solid_pieces(points: Points, normals: Points, rng: np.random.Generator) -> t
         group = np.flatnonzero(labels == label)
         if len(group) < MIN_PIECE_POINTS:
             continue
-        try:
-            hull = ConvexHull(points[group])
-        except QhullError:  # flat or degenerate: no solid to speak of
-            pieces += convex_parts(points[group], normals[group], rng)
-            continue
-        depth = -np.max(points[group] @ hull.equations[:, :3].T + hull.equations[:, 3], axis=1)
-        if float(np.percentile(depth, 95)) > SOLID_DEPTH_M:
+        if not _on_hull(points[group]):
             pieces += convex_parts(points[group], normals[group], rng)
             continue
         cloud = np.concatenate([points[group], points[group] - INWARD_OFFSET_M * normals[group]])
         pieces.append(np.asarray(cloud[ConvexHull(cloud).vertices], dtype=np.float64))
     return tuple(pieces)
+
+
+def _on_hull(points: Points) -> bool:
+    """Whether 95 % of ``points`` (m) lie within ``primitive_fit.TOLERANCE_M`` (the tolerance a box or cylinder is
+    fitted to) of the boundary of their convex hull: False for a flat or degenerate set."""
+    from tasks.grasp.primitive_fit import TOLERANCE_M  # noqa: PLC0415 - it imports this module
+
+    try:
+        hull = ConvexHull(points)
+    except QhullError:
+        return False
+    depth = -np.max(points @ hull.equations[:, :3].T + hull.equations[:, 3], axis=1)
+    return float(np.percentile(depth, 95)) <= TOLERANCE_M
 
 
 def crop_points(points: Points, center: Vector3, radius_m: float) -> Points:
