@@ -258,20 +258,24 @@ def convex_parts(
     clusters: list[npt.NDArray[np.int64]] = []
     for label in np.unique(labels):
         clusters += _coherent(np.flatnonzero(labels == label), points, normals, rng)
-    parts: list[Points] = []
-    for sel in clusters:
-        cloud = np.concatenate([points[sel], points[sel] - INWARD_OFFSET_M * normals[sel]])
-        if len(cloud) < 4:
-            continue
+    pieces = (_thickened_hull(points[sel], normals[sel]) for sel in clusters)
+    return tuple(piece for piece in pieces if piece is not None)
+
+
+def _thickened_hull(points: Points, normals: Points) -> Points | None:
+    """Hull vertices (k, 3) m, world, of ``points`` and their copies ``INWARD_OFFSET_M`` in along the outward
+    ``normals`` (joggled by qhull when flat); None for fewer than four or a hull qhull cannot make."""
+    cloud = np.concatenate([points, points - INWARD_OFFSET_M * normals])
+    if len(cloud) < 4:
+        return None
+    try:
+        hull = ConvexHull(cloud)
+    except QhullError:
         try:
-            hull = ConvexHull(cloud)
+            hull = ConvexHull(cloud, qhull_options="QJ")
         except QhullError:
-            try:
-                hull = ConvexHull(cloud, qhull_options="QJ")
-            except QhullError:
-                continue
-        parts.append(np.asarray(cloud[hull.vertices], dtype=np.float64))
-    return tuple(parts)
+            return None
+    return np.asarray(cloud[hull.vertices], dtype=np.float64)
 
 
 def build_object_model(
@@ -389,11 +393,8 @@ def solid_pieces(points: Points, normals: Points, rng: np.random.Generator) -> t
         group = np.flatnonzero(labels == label)
         if len(group) < MIN_PIECE_POINTS:
             continue
-        if not _on_hull(points[group]):
-            pieces += convex_parts(points[group], normals[group], rng)
-            continue
-        cloud = np.concatenate([points[group], points[group] - INWARD_OFFSET_M * normals[group]])
-        pieces.append(np.asarray(cloud[ConvexHull(cloud).vertices], dtype=np.float64))
+        solid = _thickened_hull(points[group], normals[group]) if _on_hull(points[group]) else None
+        pieces += [solid] if solid is not None else convex_parts(points[group], normals[group], rng)
     return tuple(pieces)
 
 
