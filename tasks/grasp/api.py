@@ -12,8 +12,8 @@ palm along +z to the wrist pose and closing the fingers towards a2 (``barrett.CL
 stop on the part, as ``tasks.simulate`` and the scenes' truth grasps do. ``quality`` holds epsilon, volume,
 force_closure, the contact count, the closed DOFs ``closed_dofs`` [spread, f1, f2, f3] (radians) found in
 planning, ``demo_offset_m`` / ``demo_angle_rad``: how far the palm lies off the demonstrated approach, and
-(``plan_grasp``) ``planned_on``: the fitted box or cylinder, a mounted part's cylinder and convex pieces, or the
-convex pieces the grasp was planned on.
+(``plan_grasp``) ``planned_on``: the fitted box or cylinder, a mounted part's cylinder or a cap's and convex
+pieces, or the convex pieces the grasp was planned on.
 """
 
 from __future__ import annotations
@@ -300,10 +300,13 @@ def plan_grasp(
 
 def planned_on(model: ObjectModel) -> str:
     """What a grasp was planned on: ``"box"`` or ``"cylinder"`` (a primitive fitted to the points), ``"cylinder
-    and convex pieces"`` (a mounted part's bar, ``part_cylinders``, the rest of it and its mount in pieces), else
-    ``"convex pieces"`` (of the points; the part's and its mount's when a mount was found)."""
+    and convex pieces"`` (a mounted part's bar, ``part_cylinders``, the rest of it and its mount in pieces), ``"cap
+    and convex pieces"`` (a cap's cylinder, ``tasks.grasp.cap``, its mount in pieces), else ``"convex pieces"`` (of
+    the points; the part's and its mount's when a mount was found)."""
     if model.primitive is not None:
         return model.primitive.kind
+    if model.cap is not None:
+        return "cap and convex pieces"
     return "cylinder and convex pieces" if model.cylinder is not None else "convex pieces"
 
 

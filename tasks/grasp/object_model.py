@@ -85,6 +85,9 @@ class ObjectModel:
     """Whether the part's pieces came from ``_part_pieces`` (so their redraws do too)."""
     cylinder: PrimitiveShape | None = None
     """The cylinder found in a mounted part (``part_cylinders``), its first piece, if any."""
+    cap: PrimitiveShape | None = None
+    """The cylinder of a cap (``tasks.grasp.cap``), when the part is one: its one piece (so its redraws too)."""
+
     tree: cKDTree = field(init=False, repr=False)
     lower: Vector3 = field(init=False, repr=False)
     upper: Vector3 = field(init=False, repr=False)
@@ -120,6 +123,8 @@ class ObjectModel:
             return ObjectModel(
                 self.points, self.normals, self.center, self.radius, convex_parts(self.points, self.normals, rng)
             )
+        if self.cap is not None:
+            return _capped(self.points, self.normals, self.mount, self.cap, rng)
         return _mounted(self.points, self.normals, self.mount, rng, fit=self.fitted)
 
 
@@ -292,13 +297,15 @@ def build_object_model(
     """Object model for planning from (n, 3) world points (m): downsampled, normals (oriented away from
     ``viewpoint``, a place outside the object, when given), convex parts or primitive. With ``approach`` too (a
     unit vector, world: the demonstrated palm's +z), the mount the part stands on is looked for
-    (``tasks.grasp.mount``) and, when found, kept apart (``ObjectModel.mount``). Without a mount and with
+    (``tasks.grasp.mount``) and, when found, kept apart (``ObjectModel.mount``); when none is, a cap the palm looks
+    down on (``tasks.grasp.cap``, on the points as given) is the part, one exact piece, and what it sits on the
+    mount (``ObjectModel.cap``). Without a mount and with
     ``fit``, a box or cylinder whose surface explains the points (``tasks.grasp.primitive_fit``: a carton, a
     bottle, a can) becomes the model's ``primitive`` instead of convex pieces, as GraspIt plans on shape primitives
     (Miller et al. 2003): the pieces' edges and seams, which fall differently with each k-means draw, decided
     which grasps held (``bench/grasp.py`` seeds 7, 11, 13: 36/42 boxes and cylinders held on pieces, 39/42 on the
     fit with the planner's 6 s check, 41/42 with its checks on primitives, ``tasks.grasp.api.plan_on_model``)."""
-    pts = check_object_points(points)
+    pts = scan = check_object_points(points)
     if normals is None:
         pts = voxel_downsample(pts, voxel_m)
         if len(pts) < MIN_POINTS:
@@ -314,6 +321,13 @@ def build_object_model(
         from tasks.grasp.mount import find_mount  # noqa: PLC0415 - scikit-learn, only when a mount is looked for
 
         mount = find_mount(pts, viewpoint, approach)
+        if not mount.any():
+            from tasks.grasp.cap import find_cap  # noqa: PLC0415 - it imports this module's types only
+
+            cap = find_cap(scan, viewpoint, approach)
+            on_cap = cap.contains(pts) if cap is not None else ~mount
+            if cap is not None and int(on_cap.sum()) >= MIN_POINTS and not on_cap.all():
+                return _capped(pts, nrm, ~on_cap, cap.shape(), rng)
         if mount.any() and int((~mount).sum()) >= MIN_POINTS:
             return _mounted(pts, nrm, mount, rng, fit=fit)
     center = pts.mean(axis=0)
@@ -356,6 +370,22 @@ def _mounted(
     mount_pieces = convex_parts(points[mount], normals[mount], rng)
     return ObjectModel(
         points, normals, center, radius, pieces + mount_pieces, None, mount, len(mount_pieces), fit, cylinder
+    )
+
+
+def _capped(
+    points: Points, normals: Points, mount: BoolArray, cap: PrimitiveShape, rng: np.random.Generator
+) -> ObjectModel:
+    """A model of a cap on its mount: the cap one exact piece, the prism of its cylinder ``cap`` (the scan's
+    points are voxel centroids, up to 2 mm inside its rim and top), then the mount's convex pieces."""
+    from tasks.grasp.part_cylinders import prism_vertices  # noqa: PLC0415 - it imports this module
+
+    grip = points[~mount]
+    center = grip.mean(axis=0)
+    radius = float(np.linalg.norm(grip - center, axis=1).max())
+    mount_pieces = convex_parts(points[mount], normals[mount], rng)
+    return ObjectModel(
+        points, normals, center, radius, (prism_vertices(cap), *mount_pieces), None, mount, len(mount_pieces), cap=cap
     )
 
 

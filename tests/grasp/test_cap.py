@@ -1,0 +1,98 @@
+"""The cap a palm looks down on (``cap.py``): the solid the palm meets first as far as its side keeps one radius,
+its neck and body the mount; a box, a can and a lone cylinder have none. On the bottle scene a cap planned as the
+part holds the cap, not the neck below it."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from tasks.arrays import Points
+from tasks.grasp.api import planned_on
+from tasks.grasp.cap import find_cap
+from tasks.grasp.object_model import build_object_model
+from tasks.grasp.surface_sampling import sample_box_surface, sample_cylinder_surface
+from tests.grasp.bench_object import plan_bench_scene
+
+CAP_RADIUS_M = 0.020
+CAP_HEIGHT_M = 0.022
+NECK_RADIUS_M = 0.018
+"""A cap 40 mm across and 22 mm tall on a neck 2 mm narrower (the bottle scene's), on a shoulder and a body."""
+TOP = np.array([0.3, -0.1, 1.0])
+"""Centre of the cap's top face, world m; the bottle stands along world z."""
+
+
+def bottle_points(rng: np.random.Generator) -> Points:
+    """Surface points of a bottle's top as a sampled model has them, each closed cylinder whole (the cap's, the
+    neck's, the shoulder's and the body's hidden faces too): cap, 12 mm of neck below it, shoulder, body."""
+    shapes = (  # (radius, height, depth of the top below the cap's top)
+        (CAP_RADIUS_M, CAP_HEIGHT_M, 0.0),
+        (NECK_RADIUS_M, 0.025, CAP_HEIGHT_M - 0.013),
+        (0.030, 0.030, CAP_HEIGHT_M + 0.012),
+        (0.042, 0.08, CAP_HEIGHT_M + 0.042),
+    )
+    clouds = []
+    for radius, height, below in shapes:
+        pts, _ = sample_cylinder_surface(radius, height / 2, 2500, rng)
+        clouds.append(pts + TOP - np.array([0.0, 0.0, below + height / 2]))
+    return np.concatenate(clouds)
+
+
+@pytest.mark.parametrize("tilt_deg", [0.0, 10.0])
+def test_cap_on_a_bottle_is_found_with_its_size_and_axis(tilt_deg: float) -> None:
+    """Seen from 80 mm above, the approach straight down or tilted 10°: the cap's radius within 0.5 mm, its height
+    (top to where the neck begins) within 2 mm, its axis within 1° of world -z and its top face's centre within
+    1 mm."""
+    points = bottle_points(np.random.default_rng(3))
+    approach = Rotation.from_euler("x", tilt_deg, degrees=True).apply([0.0, 0.0, -1.0])
+    cap = find_cap(points, TOP - 0.08 * approach, approach)
+    assert cap is not None
+    assert cap.radius_m == pytest.approx(CAP_RADIUS_M, abs=0.0005)
+    assert cap.height_m == pytest.approx(CAP_HEIGHT_M, abs=0.002)
+    assert math.degrees(math.acos(float(cap.axis @ [0.0, 0.0, -1.0]))) < 1.0
+    assert np.linalg.norm(np.asarray(cap.top) - TOP) < 0.001
+    inside = cap.contains(points, 0.0)
+    assert not inside[points[:, 2] < TOP[2] - CAP_HEIGHT_M - 0.004].any()  # nothing of the neck or below
+
+
+def test_box_can_and_lone_cylinder_have_no_cap() -> None:
+    """A box's top is no disk; a can's side goes on past 60 mm; a cylinder with nothing beyond it is the whole
+    object."""
+    rng = np.random.default_rng(4)
+    down = np.array([0.0, 0.0, -1.0])
+    box, _ = sample_box_surface(np.array([0.03, 0.02, 0.05]), 6000, rng)
+    assert find_cap(box, np.array([0.0, 0.0, 0.13]), down) is None
+    can, _ = sample_cylinder_surface(0.03, 0.06, 6000, rng)
+    assert find_cap(can, np.array([0.0, 0.0, 0.14]), down) is None
+    lone, _ = sample_cylinder_surface(CAP_RADIUS_M, CAP_HEIGHT_M / 2, 3000, rng)
+    assert find_cap(lone, np.array([0.0, 0.0, 0.09]), down) is None
+
+
+def test_bottle_model_is_its_cap_on_a_mount() -> None:
+    """Modelled from above, the bottle's free body is its cap: one piece, the cap's cylinder; the neck, shoulder
+    and body are the mount."""
+    points = bottle_points(np.random.default_rng(5))
+    down = np.array([0.0, 0.0, -1.0])
+    model = build_object_model(
+        points, np.random.default_rng(0), viewpoint=TOP + np.array([0.0, 0.0, 0.08]), approach=down
+    )
+    assert model.cap is not None
+    assert planned_on(model) == "cap and convex pieces"
+    assert model.mount is not None
+    assert len(model.parts) - model.mount_parts == 1
+    part = model.points[~model.mount]
+    assert float(part[:, 2].min()) > TOP[2] - CAP_HEIGHT_M - 0.004
+    assert float(model.points[model.mount][:, 2].max()) < TOP[2] - CAP_HEIGHT_M + 0.004
+
+
+def test_benchmark_bottle_cap_is_held_not_the_neck() -> None:
+    """The benchmark's bottle seed 1 (seed 11): planned on the whole scan as one free body, the grasp the planner's
+    check held closed on the cap and the neck and dropped the exact cap. Planned on the cap, the grasp holds the
+    exact cap under the benchmark's hold test, at the demonstrated palm."""
+    planned = plan_bench_scene(11, "bottle seed 1")
+    assert planned.grasp.quality["force_closure"] is True
+    assert planned.grasp.quality["demo_offset_m"] < 0.005
+    assert planned.holds
