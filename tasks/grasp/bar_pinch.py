@@ -30,7 +30,7 @@ from tasks.grasp.planner import ApproachSpace, GraspCandidate, PlannerParams, ex
 SQUARE_DISTANCES_M = tuple(round(0.06 + 0.005 * i, 3) for i in range(9))
 """Palm distances (m) from the bar's near surface: 60-100 mm in 5 mm steps (the window is 10-15 mm wide)."""
 SQUARE_SPREADS_RAD = (0.0, math.pi / 2)
-"""Spreads (rad) tried, in order of preference at equal margin (``pinch.PINCH_SPREADS_RAD``)."""
+"""Spreads (rad) tried, in this order (as ``pinch.PINCH_SPREADS_RAD``)."""
 MAX_TILT_RAD = math.radians(45.0)
 """The bar's square is used only when the demonstrated approach is within 45° of it."""
 
@@ -56,7 +56,7 @@ def square_space(model: ObjectModel, seed_rot: FloatArray, seed_pos: Vector3) ->
     along = float(np.clip((np.asarray(seed_pos) - centre) @ axis, -half, half))  # nearest the demonstrated palm
     on_axis = centre + along * axis
     front = on_axis - z * float(bar.size[0])
-    back = 0.2
+    back = 0.2  # the space's seed palm; only its pivot, ``front``, matters: a state's distance is taken from it
     return ApproachSpace(rot, front - z * back, back)
 
 
@@ -82,7 +82,7 @@ def square_pinches(
 
 def _order(cand: GraspCandidate) -> tuple[int, float]:
     """Sort key of a square pinch: spread (``SQUARE_SPREADS_RAD`` order), then distance from the middle of
-    ``SQUARE_DISTANCES_M`` (the middle of the fingertips' reach) outwards."""
+    ``SQUARE_DISTANCES_M`` (the middle of the fingertips' reach) outwards, the nearer of two equally far first."""
     spread, step = _key(cand)
     return spread, abs(step - (len(SQUARE_DISTANCES_M) - 1) / 2.0) + 0.1 * step
 

@@ -1,23 +1,22 @@
-"""A cap or knob the palm looks down on: the part is the solid the palm meets first, as far as its sides keep
-one radius; the neck or body it sits on is its mount.
+"""A cap or knob the palm looks down on: the part is the solid the palm meets first, as far as its sides keep one
+radius; the neck or body it sits on is its mount.
 
-The plane search of ``mount.py`` finds the face a handle or a lever stands on; a bottle's cap stands on a neck
-2 mm narrower than itself, on a shoulder and a body, none of which is a plane facing the hand. Without a mount the
-whole scan is the free body of the planner's hold check, and fingers that close on the neck hold it there, while
-on the bottle only the cap turns: on the benchmark's bottle seed 1 (seed 11) palms 10-20 mm further down than the
-demonstrated one held under the planner's check and dropped the exact cap (the fingers on the neck), while the
-demonstrated palm and 10 mm behind it, which held the exact cap, mostly failed the check. Planned on the cap (its
-cylinder one exact piece, ``object_model._capped``), the nine bottle rows of ``bench/grasp.py`` (seeds 7, 11, 13)
-all held, at the demonstrated palm.
+The plane search of ``mount.py`` finds the face a handle or a lever stands on; a bottle's cap stands on a neck 2 mm
+narrower than itself, on a shoulder and a body, none of which is a plane facing the hand. Without a mount the whole scan
+is the free body of the planner's hold check, and fingers that close on the neck hold it there, while on the bottle only
+the cap turns: on the benchmark's bottle seed 1 (seed 11) palms 10-20 mm further down than the demonstrated one held
+under the planner's check and dropped the exact cap (the fingers on the neck), while the demonstrated palm and 10 mm
+behind it, which held the exact cap, mostly failed the check. Planned on the cap (its cylinder one exact piece,
+``object_model._capped``), the nine bottle rows of ``bench/grasp.py`` (seeds 7, 11, 13) all held, at the demonstrated
+palm.
 
 The top face is the plane most of the points nearest the palm lie on; its normal is the cap's axis (a demonstrated
-approach may be 10° off it) and the middle of its points' extent the cap's centre (their centroid lies off it where
-the sampling is uneven). The side is walked on the points as scanned
-(voxels average a corner's or a step's two sides), by the outermost point of each slab (a sampled model also has a
-cap's hidden inner faces). Going down the axis in slabs of ``SLAB_M``, the cap's side lies
-within ``STEP_M`` of the radius of its rim all round (``SECTORS``); the first slab whose outermost points lie
-inside that radius by more (a neck) or outside it within ``BESIDE_M`` (a shoulder) ends the cap, and a side that
-goes on past ``MAX_HEIGHT_M`` is no cap (a can). World frame, metres.
+approach may be 10° off it) and the middle of its points' extent the cap's centre (their centroid lies off it where the
+sampling is uneven). The side is walked on the points as scanned (voxels average a corner's or a step's two sides), by
+the outermost point of each slab (a sampled model also has a cap's hidden inner faces). Going down the axis in slabs of
+``SLAB_M``, the cap's side lies within ``STEP_M`` of the radius of its rim all round (``SECTORS``); the first slab whose
+outermost points lie inside that radius by more (a neck) or outside it within ``BESIDE_M`` (a shoulder) ends the cap,
+and a side that goes on past ``MAX_HEIGHT_M`` is no cap (a can). World frame, metres.
 """
 
 from __future__ import annotations
@@ -29,6 +28,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from tasks.arrays import BoolArray, FloatArray, Points, Vector3
+from tasks.grasp.mount import in_plane
 from tasks.grasp.object_model import PrimitiveShape
 
 TOP_M = 0.002
@@ -109,13 +109,13 @@ def find_cap(scan: Points, palm_position: Vector3, approach: Vector3) -> Cap | N
     top = np.abs((raw - centre) @ axis) <= TOP_M
     if int(top.sum()) < MIN_TOP_POINTS:
         return None
-    across = _across(axis)
+    across = in_plane(axis)
     flat = raw[top] @ across
     centre = centre + across @ ((flat.min(axis=0) + flat.max(axis=0)) / 2.0 - (centre @ across))  # the disk's
     rel = raw - centre  # centre: its points' centroid lies off it where the sampling is uneven
     along = rel @ axis
     radial = np.linalg.norm(rel - along[:, None] * axis, axis=1)
-    if int(top.sum()) < MIN_TOP_POINTS or float(along.min()) < -TOP_M:
+    if float(along.min()) < -TOP_M:
         return None  # the face is not the nearest surface along its own axis
     rim = float(radial[top].max())
     if rim > MAX_RADIUS_M:
@@ -143,7 +143,7 @@ def _ransac_plane(points: Points, look: Vector3) -> tuple[Vector3, Vector3] | No
     again to its inliers; None when fewer than ``MIN_TOP_POINTS`` lie on it."""
     from sklearn.linear_model import RANSACRegressor  # noqa: PLC0415 - only when a cap is looked for
 
-    across = _across(look)
+    across = in_plane(look)
     ransac = RANSACRegressor(min_samples=3, residual_threshold=PLANE_TOLERANCE_M, max_trials=100, random_state=0)
     try:
         ransac.fit(points @ across, points @ look)
@@ -172,14 +172,6 @@ def _round(radial: np.ndarray, sector: np.ndarray, rim: float) -> bool:
         if len(here) == 0 or abs(float(here.max()) - rim) > STEP_M:
             return False
     return True
-
-
-def _across(axis: Vector3) -> np.ndarray:
-    """(3, 2) two unit vectors square to unit ``axis`` and to each other."""
-    helper = np.array([1.0, 0.0, 0.0]) if abs(float(axis[0])) < 0.9 else np.array([0.0, 1.0, 0.0])
-    u = np.cross(axis, helper)
-    u /= float(np.linalg.norm(u))
-    return np.stack([u, np.cross(axis, u)], axis=1)
 
 
 def _z_to(axis: Vector3) -> FloatArray:

@@ -52,7 +52,7 @@ def find_mount(points: Points, palm_position: Vector3, approach: Vector3) -> Boo
 
     axis = np.asarray(approach, dtype=np.float64) / float(np.linalg.norm(approach))
     depth = (points - np.asarray(palm_position, dtype=np.float64)) @ axis
-    across = _in_plane(axis)
+    across = in_plane(axis)
     uv = points @ across  # coordinates across the approach: the mount's depth is a function of them
     left = np.arange(len(points))
     best: BoolArray | None = None
@@ -91,13 +91,13 @@ def _is_mount(points: Points, on: BoolArray, normal: Vector3, axis: Vector3, dep
         return False
     if float(np.median(depth[on])) - float(depth[~on].min()) < MIN_DEPTH_M:
         return False
-    flat = (points[on] - points[on].mean(axis=0)) @ _in_plane(unit)
+    flat = (points[on] - points[on].mean(axis=0)) @ in_plane(unit)
     _, axes = np.linalg.eigh(flat.T @ flat)  # the plane's points' own principal directions, shortest first
     narrow, wide = np.ptp(flat @ axes, axis=0)
     return float(wide) >= MIN_SPAN_M and float(narrow) >= MIN_WIDTH_M
 
 
-def _in_plane(normal: Vector3) -> np.ndarray:
+def in_plane(normal: Vector3) -> np.ndarray:
     """(3, 2) two unit vectors spanning the plane of ``normal``."""
     helper = np.array([1.0, 0.0, 0.0]) if abs(float(normal[0])) < 0.9 else np.array([0.0, 1.0, 0.0])
     u = np.cross(normal, helper)
