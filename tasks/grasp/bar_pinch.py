@@ -25,12 +25,14 @@ from scipy.spatial.transform import Rotation
 from tasks.arrays import FloatArray, Vector3
 from tasks.grasp import barrett
 from tasks.grasp.object_model import ObjectModel
+from tasks.grasp.pinch import PINCH_SPREADS_RAD, spread_rank
 from tasks.grasp.planner import ApproachSpace, GraspCandidate, PlannerParams, execute_states, pivot_distance
 
-SQUARE_DISTANCES_M = tuple(round(0.06 + 0.005 * i, 3) for i in range(9))
+SQUARE_STEP_M = 0.005
+SQUARE_DISTANCES_M = tuple(round(0.06 + SQUARE_STEP_M * i, 3) for i in range(9))
 """Palm distances (m) from the bar's near surface: 60-100 mm in 5 mm steps (the window is 10-15 mm wide)."""
-SQUARE_SPREADS_RAD = (0.0, math.pi / 2)
-"""Spreads (rad) tried, in this order (as ``pinch.PINCH_SPREADS_RAD``)."""
+SQUARE_SPREADS_RAD = PINCH_SPREADS_RAD
+"""Spreads (rad) tried, in this order: the fingertip pinches' (``pinch.PINCH_SPREADS_RAD``)."""
 MAX_TILT_RAD = math.radians(45.0)
 """The bar's square is used only when the demonstrated approach is within 45° of it."""
 
@@ -89,6 +91,5 @@ def _order(cand: GraspCandidate) -> tuple[int, float]:
 
 def _key(cand: GraspCandidate) -> tuple[int, int]:
     """(spread index in ``SQUARE_SPREADS_RAD``, distance step in ``SQUARE_DISTANCES_M``) of a square pinch."""
-    spread = int(np.argmin([abs(float(cand.closed[0]) - s) for s in SQUARE_SPREADS_RAD]))
-    step = round((float(cand.state[2]) - SQUARE_DISTANCES_M[0]) / 0.005)
-    return spread, step
+    step = round((float(cand.state[2]) - SQUARE_DISTANCES_M[0]) / SQUARE_STEP_M)
+    return spread_rank(float(cand.closed[0])), step

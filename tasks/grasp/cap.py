@@ -120,7 +120,8 @@ def find_cap(scan: Points, palm_position: Vector3, approach: Vector3) -> Cap | N
     rim = float(radial[top].max())
     if rim > MAX_RADIUS_M:
         return None
-    u = rel[top][int(np.argmax(radial[top]))] - float(along[top][int(np.argmax(radial[top]))]) * axis
+    outermost = np.flatnonzero(top)[int(np.argmax(radial[top]))]
+    u = rel[outermost] - float(along[outermost]) * axis
     u /= float(np.linalg.norm(u))
     azimuth = np.arctan2(rel @ np.cross(axis, u), rel @ u)
     sector = np.floor((azimuth + math.pi) / (2.0 * math.pi) * SECTORS).astype(np.int64) % SECTORS

@@ -325,9 +325,10 @@ def build_object_model(
             from tasks.grasp.cap import find_cap  # noqa: PLC0415 - it imports this module's types only
 
             cap = find_cap(scan, viewpoint, approach)
-            on_cap = cap.contains(pts) if cap is not None else ~mount
-            if cap is not None and int(on_cap.sum()) >= MIN_POINTS and not on_cap.all():
-                return _capped(pts, nrm, ~on_cap, cap.shape(), rng)
+            if cap is not None:
+                on_cap = cap.contains(pts)
+                if MIN_POINTS <= int(on_cap.sum()) < len(pts):  # a cap, and something beyond it
+                    return _capped(pts, nrm, ~on_cap, cap.shape(), rng)
         if mount.any() and int((~mount).sum()) >= MIN_POINTS:
             return _mounted(pts, nrm, mount, rng, fit=fit)
     center = pts.mean(axis=0)

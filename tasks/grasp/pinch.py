@@ -55,7 +55,7 @@ def pinch_candidates(
         for spread in PINCH_SPREADS_RAD
     ]
     found = execute_states(model, space, picks, params, approach_max_m=0.0)
-    return sorted(found, key=lambda c: (_spread_rank(float(c.closed[0])), c.closeness))
+    return sorted(found, key=lambda c: (spread_rank(float(c.closed[0])), c.closeness))
 
 
 ROLLED_PINCH_RAD = (math.radians(-15.0), math.radians(15.0))
@@ -91,6 +91,6 @@ def pinch_neighbours(
     return execute_states(model, space, picks, params, approach_max_m=0.0)
 
 
-def _spread_rank(spread_rad: float) -> int:
+def spread_rank(spread_rad: float) -> int:
     """Index of the ``PINCH_SPREADS_RAD`` entry nearest ``spread_rad``."""
     return int(np.argmin([abs(spread_rad - s) for s in PINCH_SPREADS_RAD]))
