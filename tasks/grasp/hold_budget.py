@@ -5,6 +5,7 @@ closure (``squeezed``, ``closed_or_squeezed``).
 
 from __future__ import annotations
 
+import collections
 import dataclasses
 import functools
 import itertools
@@ -14,12 +15,14 @@ from collections.abc import Callable, Iterable, Iterator
 import numpy as np
 
 from tasks.arrays import FloatArray
+from tasks.grasp import worker_pool
 from tasks.grasp.candidate_grasp import grasp_from_candidate
 from tasks.grasp.hold_check import CHECK_CYCLES, CHECK_LENGTH_S, check_length_s, hold_check
 from tasks.grasp.object_model import ObjectModel
 from tasks.grasp.planner import GraspCandidate, rank_tier
 from tasks.grasp.settle import settle
-from tasks.grasp.shake import ShakeParams, shake_test
+from tasks.grasp.shake import ShakeParams, ShakeResult, shake_test
+from tasks.grasp.worker_pool import Beside
 
 CHECK_BUDGET_S = 20.0
 """Simulated seconds of shaking the hold checks of one plan (``api.SHAKE_BUDGET`` of them) may take in all (a
@@ -79,15 +82,25 @@ class HoldBudget:
     ) -> GraspCandidate | None:
         """The first of up to ``checks`` (candidate, model) pairs whose grasp holds under ``program`` (of the
         palm's orientation; by default ``hold_check`` with the budget's cycles) and that ``accept`` returns a grasp
-        for (the candidate itself by default)."""
+        for (the candidate itself by default). The next checks (``worker_pool.workers()`` in all) run while one is
+        awaited; the grasps and the budget left are those of checking one after another."""
         check = program or functools.partial(hold_check, cycles=self.cycles)
-        for tried in itertools.islice(candidates, checks):  # a lazy iterable is only drawn as far as checked
-            if self.spent():
+        queue = itertools.islice(candidates, checks)  # a lazy iterable is only drawn as far as checks are started
+        window: collections.deque[tuple[Tried, Beside[ShakeResult]]] = collections.deque()
+        found: GraspCandidate | None = None
+        while True:
+            while len(window) < max(1, worker_pool.workers()) and len(window) < self.left:
+                tried = next(queue, None)
+                if tried is None:
+                    break
+                grasp = grasp_from_candidate(tried[0])
+                window.append((tried, Beside(shake_test, tried[1], grasp, check(np.asarray(grasp.wrist_orientation)))))
+            if not window or self.spent():
                 break
-            cand, model = tried
+            tried, running = window.popleft()
+            cand = tried[0]
             self.left -= 1
-            grasp = grasp_from_candidate(cand)
-            result = shake_test(model, grasp, check(np.asarray(grasp.wrist_orientation)))
+            result = running.result()
             self.seconds -= result.survived_s
             accepted = accept(tried) if result.holds else None
             firm = result.max_shift_m <= FIRM_SHIFT_M and result.max_turn_rad <= FIRM_TURN_RAD
@@ -95,12 +108,15 @@ class HoldBudget:
                 self.loose.append(accepted)
                 continue
             if accepted is not None:
-                return accepted
+                found = accepted
+                break
             if result.holds:
                 self.unaccepted.append(cand)
             if result.survived_s > self.longest_s and rank_tier(cand.quality) == 0:
                 self.longest, self.longest_s = cand, result.survived_s
-        return None
+        for _, running in window:  # checks started ahead that are not needed
+            running.drop()
+        return found
 
 
 def squeezed(tried: Tried, mu: float) -> GraspCandidate | None:

@@ -25,10 +25,11 @@ import pybullet as pb
 from scipy.spatial.transform import Rotation
 
 from tasks.arrays import FloatArray, Vector3
-from tasks.grasp import barrett, closing
+from tasks.grasp import barrett, closing, worker_pool
 from tasks.grasp.anneal import ILLEGAL_ENERGY, AnnealTrace, Schedule, anneal
 from tasks.grasp.object_model import ObjectModel, load_object
 from tasks.grasp.quality import DEFAULT_MU, GraspQuality, grasp_quality
+from tasks.grasp.worker_pool import Beside
 
 NORMAL_WEIGHT_MM = 50.0
 """Contact energy: weight of the misalignment term 1 - n·p, in mm (GraspIt!'s contactEnergy)."""
@@ -307,6 +308,11 @@ def search(
         rot, pos = space.pose(x)
         return contact_energy(model, rot, pos, barrett.dofs_from_eigengrasps(float(x[0]), float(x[1])))
 
+    line: list[tuple[FloatArray, float]] = []
+    for a1, (back, roll) in itertools.product(LINE_SPREADS, LINE_POSES):
+        x = np.array([a1, 0.0, space.pivot_m + back, roll, 0.0])
+        line.insert(0, (x, energy(x)))
+    on_line = executing(model, space, line, prm, parts=1 if prm.chains else None)  # one worker while this anneals
     d0 = float(np.clip(space.pivot_m, *prm.distance_range_m))
     starts = [np.array([a1, -1.0, d0, 0.0, 0.0]) for a1 in CHAIN_SPREADS[: prm.chains]]
     traces = [anneal(energy, s, lower, upper, jump, prm.steps, rng, prm.schedule) for s in starts]
@@ -323,10 +329,7 @@ def search(
         sub = AnnealTrace(pooled.states[sel], pooled.energies[sel], 0)
         picks += [(sub.states[i], float(sub.energies[i])) for i in _select(sub, per_bin, upper - lower)]
 
-    for a1, (back, roll) in itertools.product(LINE_SPREADS, LINE_POSES):
-        x = np.array([a1, 0.0, space.pivot_m + back, roll, 0.0])
-        picks.insert(0, (x, energy(x)))
-    out = execute_states(model, space, picks, prm)
+    out = [cand for part in on_line + executing(model, space, picks, prm) for cand in part.result()]
     out.sort(key=lambda c: (not c.near, rank_tier(c.quality), c.closeness))
     return _distinct(out)
 
@@ -377,6 +380,19 @@ def execute_states(
     finally:
         pb.disconnect(client)
     return out
+
+
+def executing(
+    model: ObjectModel,
+    space: ApproachSpace,
+    picks: list[tuple[FloatArray, float]],
+    params: PlannerParams,
+    parts: int | None = None,
+) -> list[Beside[list[GraspCandidate]]]:
+    """``execute_states`` of ``picks`` in up to ``parts`` consecutive parts (by default one for each worker process,
+    ``worker_pool``), now running there: their results, in order, are those of executing all of ``picks`` in one."""
+    size = max(1, math.ceil(len(picks) / max(1, parts or worker_pool.workers())))
+    return [Beside(execute_states, model, space, picks[i : i + size], params) for i in range(0, len(picks), size)]
 
 
 def _distinct(candidates: list[GraspCandidate]) -> list[GraspCandidate]:

@@ -26,6 +26,7 @@ from tasks.grasp.object_model import ObjectModel
 from tasks.grasp.planner import LIMIT_TOL_M, GraspCandidate
 from tasks.grasp.quality import DEFAULT_MU, GraspQuality, grasp_quality
 from tasks.grasp.shake import TIME_STEP_S, ShakeParams, grip
+from tasks.grasp.worker_pool import Beside
 
 SETTLE_S = 0.3
 SQUEEZE = ShakeParams()
@@ -104,16 +105,19 @@ def settled_wraps(  # noqa: PLR0917 -- candidates, model, seed pose, limits
     the ``skip`` closest are settled; those that settle into a force closure with the palm on the part, the part
     pulled in at most ``MAX_SHIFT_M``, their settled palm within ``max_lateral_m`` of the demonstrated approach
     (world, m) and ``max_angle_rad`` of the demonstrated palm (rotation ``seed_rot`` (3, 3)), come back as near
-    candidates at their settled palm pose with the settled qualities (friction coefficient ``mu``)."""
+    candidates at their settled palm pose with the settled qualities (friction coefficient ``mu``). The settling
+    runs in the planner's worker processes (``worker_pool``)."""
     approach = seed_rot[:, 2]
     seed_inv = Rotation.from_matrix(seed_rot).inv()
     pool = sorted(
         (c for c in candidates if (c.near or c.reach) and not c.quality.force_closure and c.angle_rad <= max_angle_rad),
         key=lambda c: c.closeness,
     )
+    chosen = pool[skip : skip + count]
+    settling = [Beside(settle, model, c.position, c.quat_xyzw, float(c.closed[0]), mu) for c in chosen]
     out: list[GraspCandidate] = []
-    for cand in pool[skip : skip + count]:
-        done = settle(model, cand.position, cand.quat_xyzw, float(cand.closed[0]), mu)
+    for cand, running in zip(chosen, settling, strict=True):
+        done = running.result()
         rel = done.position - np.asarray(seed_position, dtype=np.float64)
         lateral = float(np.linalg.norm(rel - float(rel @ approach) * approach))
         angle = float((seed_inv * Rotation.from_quat(done.quat_xyzw)).magnitude())

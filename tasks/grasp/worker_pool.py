@@ -1,0 +1,125 @@
+"""Processes beside the planner, for pybullet work whose result does not depend on where it runs.
+
+A plan's hold checks (``shake.shake_test``) and its executions of candidate poses (``planner.execute_states``) each
+build a pybullet client of their own, so they give the same result in any process. The planner sends them to
+``workers()`` processes (one per core, two at most) and uses the results in the order a single process would:
+``hold_budget.HoldBudget.first_that_holds`` checks the next candidates while the current one is being checked,
+``planner.search`` executes the poses on the demonstrated approach while it anneals and splits the annealed ones
+between the processes. Every plan is the one a single process makes; a result not needed is dropped.
+
+The processes are started on first use (about 1 s to import pybullet, numpy and scipy there, while the planner
+anneals) and kept for the life of the planner's. With ``PBD_GRASP_PROCESSES=1`` in the environment, or on a machine
+with one core, everything runs in the planner's process. If a process dies, its work is done in the planner's.
+"""
+
+from __future__ import annotations
+
+import atexit
+import concurrent.futures
+import multiprocessing
+import os
+import threading
+from collections.abc import Callable
+from concurrent.futures.process import BrokenProcessPool
+from typing import Generic, ParamSpec, TypeVar
+
+PROCESSES_ENV = "PBD_GRASP_PROCESSES"
+"""Environment variable: how many processes a plan's pybullet work may use (``1``: the planner's alone)."""
+MAX_WORKERS = 2
+"""Processes beside the planner at most: the planner is meant for 2 cores, and it waits while they work."""
+
+P = ParamSpec("P")
+T = TypeVar("T")
+
+_pool: concurrent.futures.ProcessPoolExecutor | None = None
+_running = 0
+"""Calls sent to the workers and not yet ended (``wait_idle``), guarded by ``_ended``."""
+_ended = threading.Condition()
+
+
+def workers() -> int:
+    """How many processes take the planner's work: ``PBD_GRASP_PROCESSES`` (default: the cores, at most
+    ``MAX_WORKERS``); 0 when that is 1 (all of it in the planner's process)."""
+    cores = min(os.cpu_count() or 1, MAX_WORKERS)
+    try:
+        wanted = int(os.environ.get(PROCESSES_ENV, str(cores)))
+    except ValueError:
+        wanted = cores
+    return 0 if wanted <= 1 else min(wanted, MAX_WORKERS)
+
+
+def _load() -> None:
+    """Import what a worker runs, once, when it starts."""
+    import tasks.grasp.planner  # noqa: PLC0415 -- imported for its cost, in the worker
+    import tasks.grasp.shake  # noqa: F401, PLC0415
+
+
+def _executor() -> concurrent.futures.ProcessPoolExecutor | None:
+    """The worker processes (started now if they are not running), or None when there are none."""
+    global _pool  # noqa: PLW0603 -- one set of workers per planner process
+    count = workers()
+    if count == 0:
+        return None
+    if _pool is None:
+        # spawn, not fork: the planner may run inside a threaded Prefect worker
+        _pool = concurrent.futures.ProcessPoolExecutor(
+            max_workers=count, mp_context=multiprocessing.get_context("spawn"), initializer=_load
+        )
+        atexit.register(_shutdown)
+    return _pool
+
+
+def _shutdown() -> None:
+    """Stop the workers without waiting for work nobody will read."""
+    global _pool  # noqa: PLW0603 -- see _executor
+    if _pool is not None:
+        _pool.shutdown(wait=False, cancel_futures=True)
+        _pool = None
+
+
+def _count_running(change: int) -> None:
+    """Count a call sent (+1) or ended (-1)."""
+    global _running  # noqa: PLW0603 -- see _executor
+    with _ended:
+        _running += change
+        _ended.notify_all()
+
+
+def wait_idle() -> None:
+    """Wait until the workers have ended every call sent to them, those whose results were dropped too (a plan
+    returns while checks it started ahead still run; a benchmark timing plans one after another waits here)."""
+    with _ended:
+        _ended.wait_for(lambda: _running <= 0)
+
+
+class Beside(Generic[T]):
+    """A call running in a worker process (or, when there is none, made here when its result is asked for)."""
+
+    def __init__(self, fn: Callable[P, T], *args: P.args, **kwargs: P.kwargs) -> None:
+        """Send ``fn(*args, **kwargs)`` to a worker process; ``fn`` and its arguments must pickle."""
+        self._call = (fn, args, kwargs)
+        self._future: concurrent.futures.Future[T] | None = None
+        pool = _executor()
+        if pool is not None:
+            try:
+                self._future = pool.submit(fn, *args, **kwargs)
+            except (BrokenProcessPool, RuntimeError):
+                _shutdown()
+            else:
+                _count_running(1)
+                self._future.add_done_callback(lambda _: _count_running(-1))
+
+    def result(self) -> T:
+        """The call's result (waiting for it); exceptions raised by the call are raised here."""
+        if self._future is not None:
+            try:
+                return self._future.result()
+            except BrokenProcessPool:
+                _shutdown()
+        fn, args, kwargs = self._call
+        return fn(*args, **kwargs)
+
+    def drop(self) -> None:
+        """Say the result is not needed: cancelled if it has not started (a started one runs to its end)."""
+        if self._future is not None:
+            self._future.cancel()
