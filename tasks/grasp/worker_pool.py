@@ -5,11 +5,13 @@ build a pybullet client of their own, so they give the same result in any proces
 ``workers()`` processes (one per core, two at most) and uses the results in the order a single process would:
 ``hold_budget.HoldBudget.first_that_holds`` checks the next candidates while the current one is being checked,
 ``planner.search`` executes the poses on the demonstrated approach while it anneals and splits the annealed ones
-between the processes. Every plan is the one a single process makes; a result not needed is dropped.
+between the processes, ``settle.settled_wraps`` settles its candidates side by side. Every plan is the one a single
+process makes; a result not needed is dropped.
 
-The processes are started on first use (about 1 s to import pybullet, numpy and scipy there, while the planner
-anneals) and kept for the life of the planner's. With ``PBD_GRASP_PROCESSES=1`` in the environment, or on a machine
-with one core, everything runs in the planner's process. If a process dies, its work is done in the planner's.
+The processes are started on first use, or by ``start`` (``tasks.learn.api.learn_descriptor`` starts them before
+it segments: about 1 s of CPU each to import pybullet, numpy and scipy), and kept for the life of the planner's.
+With ``PBD_GRASP_PROCESSES=1`` in the environment, or on a machine with one core, everything runs in the planner's
+process. If a process dies, its work is done in the planner's.
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ P = ParamSpec("P")
 T = TypeVar("T")
 
 _pool: concurrent.futures.ProcessPoolExecutor | None = None
+_starting = threading.Lock()
 _running = 0
 """Calls sent to the workers and not yet ended (``wait_idle``), guarded by ``_ended``."""
 _ended = threading.Condition()
@@ -49,7 +52,11 @@ def workers() -> int:
 
 
 def _load() -> None:
-    """Import what a worker runs, once, when it starts."""
+    """Import what a worker runs, once, when it starts (pybullet without its build-time banner on stderr, as the
+    CLI imports it)."""
+    from tasks.cli import quiet_pybullet_import  # noqa: PLC0415 -- in the worker only
+
+    quiet_pybullet_import()
     import tasks.grasp.planner  # noqa: PLC0415 -- imported for its cost, in the worker
     import tasks.grasp.shake  # noqa: F401, PLC0415
 
@@ -60,13 +67,21 @@ def _executor() -> concurrent.futures.ProcessPoolExecutor | None:
     count = workers()
     if count == 0:
         return None
-    if _pool is None:
-        # spawn, not fork: the planner may run inside a threaded Prefect worker
-        _pool = concurrent.futures.ProcessPoolExecutor(
-            max_workers=count, mp_context=multiprocessing.get_context("spawn"), initializer=_load
-        )
-        atexit.register(_shutdown)
-    return _pool
+    with _starting:  # plans in several threads (a flow's chains) share the workers
+        if _pool is None:
+            # spawn, not fork: the planner may run inside a threaded Prefect worker
+            _pool = concurrent.futures.ProcessPoolExecutor(
+                max_workers=count, mp_context=multiprocessing.get_context("spawn"), initializer=_load
+            )
+            atexit.register(_shutdown)
+        return _pool
+
+
+def start() -> None:
+    """Start the workers now, so that their imports (about 1 s of CPU each) overlap what the planner's process does
+    before it plans (``tasks.learn.api.learn_descriptor`` segments and fits first)."""
+    for _ in range(workers()):
+        Beside(_load)
 
 
 def _shutdown() -> None:

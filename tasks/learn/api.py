@@ -157,6 +157,8 @@ def learn_descriptor(
 
     Warnings (dropped markers, undefined segments, no grasp) are kept in ``provenance.warnings``.
     """
+    if rec.object_model is not None and len(rec.object_model):
+        _start_grasp_workers()
     result = learn_chain(rec, params, rng)
     warnings = list(result.warnings)
     obj_name = str(rec.meta.get("object") or (name or default_name(rec)))
@@ -181,6 +183,15 @@ def learn_descriptor(
         code_version=code_version(*CODE_PACKAGES),
         extra_provenance={"warnings": warnings} if warnings else {},
     )
+
+
+def _start_grasp_workers() -> None:
+    """Start the grasp planner's worker processes while the chain is learnt (``tasks.grasp.worker_pool.start``)."""
+    try:
+        from tasks.grasp.worker_pool import start  # noqa: PLC0415
+    except ImportError:
+        return
+    start()
 
 
 def _grasp(
