@@ -42,7 +42,11 @@ _ended = threading.Condition()
 
 def workers() -> int:
     """How many processes take the planner's work: ``PBD_GRASP_PROCESSES`` (default: the cores, at most
-    ``MAX_WORKERS``); 0 when that is 1 (all of it in the planner's process)."""
+    ``MAX_WORKERS``); 0 when that is 1 (all of it in the planner's process), and 0 in a process that
+    multiprocessing started (a worker of ``bench/simulate.py``, or of this pool): such a process ends by joining its
+    children without running ``atexit``, and it would wait for idle workers for ever."""
+    if multiprocessing.parent_process() is not None:
+        return 0
     cores = min(os.cpu_count() or 1, MAX_WORKERS)
     try:
         wanted = int(os.environ.get(PROCESSES_ENV, str(cores)))

@@ -3,6 +3,7 @@ a plan made with them is the plan one process makes, candidate for candidate and
 
 from __future__ import annotations
 
+import multiprocessing
 import os
 import time
 from pathlib import Path
@@ -150,3 +151,24 @@ def test_wait_idle_waits_for_dropped_calls(tmp_path: Path, monkeypatch: pytest.M
     running.drop()
     worker_pool.wait_idle()
     assert (tmp_path / "ended").exists()
+
+
+def _plan_in_a_child() -> None:
+    """Plan from a process that multiprocessing started (as ``bench/simulate.py``'s workers learn): in it."""
+    os.environ[PROCESSES_ENV] = "2"
+    assert worker_pool.workers() == 0
+    assert Beside(_pid).result() == os.getpid()
+
+
+def test_a_process_multiprocessing_started_plans_alone_and_ends() -> None:
+    """A multiprocessing child leaves by ``os._exit`` after joining its children, without ``atexit``: it starts no
+    workers of its own, and it ends."""
+    child = multiprocessing.get_context("spawn").Process(target=_plan_in_a_child)
+    child.start()
+    child.join(timeout=60)
+    ended = child.exitcode is not None
+    if not ended:
+        child.kill()
+        child.join()
+    assert ended
+    assert child.exitcode == 0
