@@ -88,8 +88,9 @@ class HoldBudget:
         queue = itertools.islice(candidates, checks)  # a lazy iterable is only drawn as far as checks are started
         window: collections.deque[tuple[Tried, Beside[ShakeResult]]] = collections.deque()
         found: GraspCandidate | None = None
+        width = max(1, worker_pool.workers())
         while True:
-            while len(window) < max(1, worker_pool.workers()) and len(window) < self.left:
+            while len(window) < width and len(window) < self.left:
                 tried = next(queue, None)
                 if tried is None:
                     break

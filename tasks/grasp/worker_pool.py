@@ -77,7 +77,6 @@ def _executor() -> concurrent.futures.ProcessPoolExecutor | None:
             _pool = concurrent.futures.ProcessPoolExecutor(
                 max_workers=count, mp_context=multiprocessing.get_context("spawn"), initializer=_load
             )
-            atexit.register(_shutdown)
         return _pool
 
 
@@ -109,6 +108,9 @@ def wait_idle() -> None:
     returns while checks it started ahead still run; a benchmark timing plans one after another waits here)."""
     with _ended:
         _ended.wait_for(lambda: _running <= 0)
+
+
+atexit.register(_shutdown)
 
 
 class Beside(Generic[T]):
