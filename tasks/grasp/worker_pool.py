@@ -25,6 +25,8 @@ from collections.abc import Callable
 from concurrent.futures.process import BrokenProcessPool
 from typing import Generic, ParamSpec, TypeVar
 
+from tasks.errors import GraspError
+
 PROCESSES_ENV = "PBD_GRASP_PROCESSES"
 """Environment variable: how many processes a plan's pybullet work may use (``1``: the planner's alone)."""
 MAX_WORKERS = 2
@@ -44,14 +46,17 @@ def workers() -> int:
     """How many processes take the planner's work: ``PBD_GRASP_PROCESSES`` (default: the cores, at most
     ``MAX_WORKERS``); 0 when that is 1 (all of it in the planner's process), and 0 in a process that
     multiprocessing started (a worker of ``bench/simulate.py``, or of this pool): such a process ends by joining its
-    children without running ``atexit``, and it would wait for idle workers for ever."""
+    children without running ``atexit``, and it would wait for idle workers for ever. ``GraspError`` when the
+    variable is not a whole number."""
     if multiprocessing.parent_process() is not None:
         return 0
     cores = min(os.cpu_count() or 1, MAX_WORKERS)
+    text = os.environ.get(PROCESSES_ENV, str(cores))
     try:
-        wanted = int(os.environ.get(PROCESSES_ENV, str(cores)))
-    except ValueError:
-        wanted = cores
+        wanted = int(text)
+    except ValueError as err:
+        msg = f"{PROCESSES_ENV} must be a whole number of processes (1: the planner's alone), got {text!r}"
+        raise GraspError(msg) from err
     return 0 if wanted <= 1 else min(wanted, MAX_WORKERS)
 
 

@@ -14,6 +14,7 @@ from scipy.spatial.transform import Rotation
 
 from bench.cases.grasp import scene_cases
 from tasks.arrays import FloatArray
+from tasks.errors import GraspError
 from tasks.grasp import worker_pool
 from tasks.grasp.api import part_near, plan_on_model
 from tasks.grasp.hold_budget import HoldBudget
@@ -80,6 +81,13 @@ def test_calls_run_in_a_worker_unless_one_process_is_asked_for(monkeypatch: pyte
     assert Beside(_pid).result() == os.getpid()
     monkeypatch.setenv(PROCESSES_ENV, "4")
     assert worker_pool.workers() == worker_pool.MAX_WORKERS
+
+
+def test_a_count_that_is_no_number_is_refused(monkeypatch: pytest.MonkeyPatch) -> None:
+    """``PBD_GRASP_PROCESSES=many`` is an error that names the variable and the value, not a silent default."""
+    monkeypatch.setenv(PROCESSES_ENV, "many")
+    with pytest.raises(GraspError, match=r"PBD_GRASP_PROCESSES must be a whole number .*got 'many'"):
+        worker_pool.workers()
 
 
 def test_a_call_raises_where_its_result_is_asked_for(monkeypatch: pytest.MonkeyPatch) -> None:
