@@ -60,7 +60,11 @@ SHAKE_CHECKS = 5
 FALLBACK_CHECKS = 5
 """Further candidates given the quick shake test when none of those holds (reached ones, then the rest)."""
 ROUNDS = 2
-"""Annealing rounds tried while no near force closure holds (the second on the model's pieces drawn anew)."""
+"""Annealing rounds tried while no near force closure holds (the second on the model's pieces drawn anew). On a part
+with a bar or a mount, the grasps slid along the bar and the pinches (``_slid``, ``_pinch``) are checked before the
+second round and the redraws. Over ``bench/grasp.py --seed 7 11 13``, 34 such parts reached the second round: it and
+the redraws found the grasp on one (door seed 1, seed 13: a grasp the benchmark's test then dropped) and cost 1.5-4 s
+each plan; the slid grasps and the pinches, checked after them, found it on the other 33."""
 REDRAWS = 4
 """Then rounds of the demonstrated approach's poses alone (no annealing, about 0.2 s each), each on pieces drawn
 anew: which of them close into force closure on a scan depends on how its convex pieces fall."""
@@ -185,10 +189,11 @@ def plan_on_model(
     4th to 10th closest grasps, ``settle.LATE_WRAP_SETTLES``; while none holds and a whole check still fits, ``ROUNDS``
     annealing rounds then ``REDRAWS`` rounds of the demonstrated approach's poses, each after the first on the model's
     pieces drawn anew, ``redecomposed``; on a mounted part, after the first round, its near grasps without a static
-    force closure that hold and show one once squeezed, ``DYNAMIC_CHECKS``, and so on a fitted primitive; on a mounted
-    part still without one, the fingertip pinches (square to its bar first), ``_pinch``; on a part planned on its bar, a
-    grasp that held loosely, ``hold_budget.FIRM_SHIFT_M``, is kept back for the later passes and the grasps slid along
-    the bar, ``_slid``, and returned when none of them, nor any pinch, holds firmly); then the first grasp that held
+    force closure that hold and show one once squeezed, ``DYNAMIC_CHECKS``, and so on a fitted primitive; on a part
+    with a bar, the grasps slid along it, ``_slid``, and on a mounted part the fingertip pinches (square to its bar
+    first), ``_pinch``, both checked after the first round and before the second (``ROUNDS``); on a part planned on its
+    bar, a grasp that held loosely, ``hold_budget.FIRM_SHIFT_M``, is kept back for the later passes and returned when
+    none of them holds firmly); then the first grasp that held
     without a force closure at ``params.mu`` whose squeezed contacts show one at the hold check's friction,
     ``hold_budget.held_closure``. When none holds: the checked force closure that lasted longest, else the first near
     force closure. Without any near force closure (nothing within reach of the demonstrated palm), up to
@@ -208,7 +213,27 @@ def plan_on_model(
     closure: list[Tried] = []
     without_closure: list[GraspCandidate] = []  # held under the check, no force closure at prm.mu even squeezed
     prm = params or PlannerParams()
+    bar_or_mount = model.cylinder is not None or model.mount is not None
+    passed = False  # the passes away from the demonstrated grasp (slid along the bar, pinches) have run
+
+    def passes() -> GraspCandidate | None:
+        """The first firm grasp slid along the bar, else the first pinch that holds (``_slid``, ``_pinch``)."""
+        nonlocal passed
+        passed = True
+        if model.cylinder is not None:  # a bar: held anywhere along it
+            slid = _slid(model, seed_rot, pos, prm, loose, without_closure)
+            if slid is not None:
+                return slid
+        if model.mount is not None:  # a handle or lever whose mount may stop the fingers wrapping it
+            # with a loosely held grasp in hand, only a firm pinch is taken over it
+            return _pinch(model, seed_rot, pos, prm, without_closure, loose=[] if loose else None)
+        return None
+
     for k in range(ROUNDS + REDRAWS):
+        if k == 1 and bar_or_mount:  # before searching the demonstration's neighbourhood again (``ROUNDS``)
+            moved = passes()
+            if moved is not None:
+                return moved
         if k == ROUNDS and not tried:
             break  # the hand fits nowhere near the seed: redrawing the pieces would only find grazing pockets
         variant = model if k == 0 else redecomposed(model, rng)
@@ -245,15 +270,10 @@ def plan_on_model(
             return held
         if closure and budget.spent():
             break
-    if model.cylinder is not None:  # a bar: held anywhere along it
-        slid = _slid(model, seed_rot, pos, prm, loose, without_closure)
-        if slid is not None:
-            return slid
-    if model.mount is not None:  # a handle or lever whose mount may stop the fingers wrapping it
-        # with a loosely held grasp in hand, only a firm pinch is taken over it
-        pinched = _pinch(model, seed_rot, pos, prm, without_closure, loose=[] if loose else None)
-        if pinched is not None:
-            return pinched
+    if not passed:
+        moved = passes()
+        if moved is not None:
+            return moved
     if loose:  # the grasp that held loosely, when nothing held firmly
         return loose[0]
     held_fc = held_closure(without_closure, model)  # a grasp that held, in force closure at the check's friction

@@ -5,6 +5,7 @@ to a pinch that holds the bar, its exact shapes, under a shake."""
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import pytest
@@ -12,7 +13,7 @@ from scipy.spatial.transform import Rotation
 
 from bench.cases.exact import exact_model
 from tasks.arrays import Points
-from tasks.grasp import object_model
+from tasks.grasp import api, object_model, planner
 from tasks.grasp.api import plan_on_model
 from tasks.grasp.candidate_grasp import grasp_from_candidate
 from tasks.grasp.object_model import ObjectModel, build_object_model
@@ -24,7 +25,7 @@ from tasks.grasp.pinch import (
     pinch_candidates,
     pinch_neighbours,
 )
-from tasks.grasp.planner import PlannerParams
+from tasks.grasp.planner import GraspCandidate, PlannerParams
 from tasks.grasp.shake import Motion, ShakeParams, shake_test
 from tasks.grasp.surface_sampling import sample_box_surface, sample_cylinder_surface
 from tasks.scenes.surface import WorldShape
@@ -184,3 +185,20 @@ def test_benchmark_handle_held_loosely_near_the_demonstration_is_held_by_a_firm_
     held_back = float((planned.seed_pos - np.asarray(grasp.wrist_position)) @ planned.approach)
     assert held_back > 0.03  # a pinch: the palm behind the demonstrated one
     assert planned.holds
+
+
+def test_a_handle_is_pinched_before_its_neighbourhood_is_searched_again(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The benchmark's handle r13 l128 (seed 7): no grasp of the first round holds, and the pinches are checked
+    before a second annealing round (``api.ROUNDS``): one search, and the pinch holds the exact handle."""
+    searches: list[int] = []
+    real = planner.search
+
+    def counted(*args: Any, **kwargs: Any) -> list[GraspCandidate]:
+        searches.append(1)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(api, "search", counted)
+    planned = plan_bench_object(7, "handle r13 l128mm vertical")
+    assert planned.grasp.quality["force_closure"] is True
+    assert planned.holds
+    assert len(searches) == 1
