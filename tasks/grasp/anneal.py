@@ -4,6 +4,10 @@ Temperatures at step k (k starts at ``k0``): neighbour T_n = T0 exp(-0.24 k^(1/2
 T_a = T0 exp(-0.54 k^(1/3)). A neighbour moves each variable by ``jump · y`` with y from Ingber's distribution
 y = sgn(u - 1/2) T_n ((1 + 1/T_n)^|2u - 1| - 1), u uniform in [0, 1]; a worse state is accepted with probability
 exp(-(E_new - E_old) · 0.01 / T_a) (energies in mm, scaled by the error constant 0.01).
+
+A chain's uniforms are drawn before it starts, a fixed block per chain (``annealing_draws``): a chain's course depends
+only on its start and its block, so the chains of one search may run in any process, side by side, and give the
+same states.
 """
 
 from __future__ import annotations
@@ -43,7 +47,11 @@ class Schedule:
 
 def ingber_draw(temperature: float, size: int, rng: np.random.Generator) -> FloatArray:
     """(size,) draws in (-1, 1) from Ingber's neighbour distribution at ``temperature``."""
-    u = rng.random(size)
+    return ingber_from_uniforms(temperature, rng.random(size))
+
+
+def ingber_from_uniforms(temperature: float, u: FloatArray) -> FloatArray:
+    """Ingber's neighbour draws in (-1, 1) at ``temperature`` from uniforms ``u`` in [0, 1) (same shape)."""
     v = np.abs(2.0 * u - 1.0)
     y = temperature * ((1.0 + 1.0 / temperature) ** v - 1.0)
     return np.where(u < 0.5, -y, y)
@@ -58,6 +66,12 @@ class AnnealTrace:
     accepted: int
 
 
+def annealing_draws(rng: np.random.Generator, steps: int, dims: int) -> FloatArray:
+    """(steps, dims + 1) uniforms in [0, 1) for one chain of ``steps`` steps over ``dims`` variables: each row the
+    neighbour's draws then the acceptance draw (used only when the neighbour is legal and worse)."""
+    return rng.random((steps, dims + 1))
+
+
 def anneal(  # noqa: PLR0917 -- the annealing inputs, named at call sites
     energy: Callable[[FloatArray], float],
     start: FloatArray,
@@ -68,22 +82,39 @@ def anneal(  # noqa: PLR0917 -- the annealing inputs, named at call sites
     rng: np.random.Generator,
     schedule: Schedule | None = None,
 ) -> AnnealTrace:
-    """Run ``steps`` annealing steps from ``start`` within [lower, upper]; returns every evaluated state."""
+    """Run ``steps`` annealing steps from ``start`` within [lower, upper], with a block of ``rng``'s uniforms
+    (``annealing_draws``); returns every evaluated state."""
+    x = np.asarray(start, dtype=np.float64)
+    return anneal_drawn(energy, x, lower, upper, jump, annealing_draws(rng, steps, len(x)), schedule)
+
+
+def anneal_drawn(  # noqa: PLR0917 -- the annealing inputs, named at call sites
+    energy: Callable[[FloatArray], float],
+    start: FloatArray,
+    lower: FloatArray,
+    upper: FloatArray,
+    jump: FloatArray,
+    draws: FloatArray,
+    schedule: Schedule | None = None,
+) -> AnnealTrace:
+    """Anneal from ``start`` within [lower, upper], one step per row of ``draws`` (``annealing_draws``); returns
+    every evaluated state."""
     sched = schedule or Schedule()
     x = np.clip(np.asarray(start, dtype=np.float64), lower, upper)
+    dims = len(x)
     e = energy(x)
     states = [x]
     energies = [e]
     accepted = 0
-    for k in range(sched.k0, sched.k0 + steps):
+    for k, row in enumerate(np.asarray(draws, dtype=np.float64), start=sched.k0):
         t_n = sched.neighbour_temperature(k)
         t_a = sched.accept_temperature(k)
-        candidate = np.clip(x + jump * ingber_draw(t_n, len(x), rng), lower, upper)
+        candidate = np.clip(x + jump * ingber_from_uniforms(t_n, row[:dims]), lower, upper)
         e_new = energy(candidate)
         states.append(candidate)
         energies.append(e_new)
         delta = (e_new - e) * sched.error_scale
-        if e_new < e or (e_new < ILLEGAL_ENERGY and rng.random() < math.exp(-min(delta / t_a, 700.0))):
+        if e_new < e or (e_new < ILLEGAL_ENERGY and float(row[dims]) < math.exp(-min(delta / t_a, 700.0))):
             x, e = candidate, e_new
             accepted += 1
     return AnnealTrace(np.array(states), np.array(energies), accepted)

@@ -16,6 +16,7 @@ the rest, force closure first, are ranked by closeness to the demonstration (``c
 from __future__ import annotations
 
 import dataclasses
+import functools
 import itertools
 import math
 from dataclasses import dataclass, field
@@ -26,7 +27,7 @@ from scipy.spatial.transform import Rotation
 
 from tasks.arrays import FloatArray, Vector3
 from tasks.grasp import barrett, closing, worker_pool
-from tasks.grasp.anneal import ILLEGAL_ENERGY, AnnealTrace, Schedule, anneal
+from tasks.grasp.anneal import ILLEGAL_ENERGY, AnnealTrace, Schedule, anneal_drawn, annealing_draws
 from tasks.grasp.object_model import ObjectModel, load_object
 from tasks.grasp.quality import DEFAULT_MU, GraspQuality, grasp_quality
 from tasks.grasp.worker_pool import Beside
@@ -286,6 +287,33 @@ def evaluate_pose(  # noqa: PLR0917 -- pybullet ids, model, pose, spread, params
     return final_pos, dofs, closed, quality
 
 
+def state_energy(model: ObjectModel, space: ApproachSpace, x: FloatArray) -> float:
+    """``contact_energy`` (mm) of state x = (a1, a2, d, θ1, θ2) in ``space``."""
+    rot, pos = space.pose(x)
+    return contact_energy(model, rot, pos, barrett.dofs_from_eigengrasps(float(x[0]), float(x[1])))
+
+
+@dataclass(frozen=True)
+class SearchBox:
+    """The annealing's bounds on x = (a1, a2, d, θ1, θ2): ``lower``, ``upper`` (5,), neighbour ``jump`` (5,)."""
+
+    lower: FloatArray
+    upper: FloatArray
+    jump: FloatArray
+
+
+def anneal_chains(
+    model: ObjectModel,
+    space: ApproachSpace,
+    box: SearchBox,
+    chains: list[tuple[FloatArray, FloatArray]],
+    schedule: Schedule,
+) -> list[AnnealTrace]:
+    """Anneal each (start (5,), uniforms ``annealing_draws``) of ``chains`` over ``state_energy``, in order."""
+    energy = functools.partial(state_energy, model, space)
+    return [anneal_drawn(energy, x0, box.lower, box.upper, box.jump, draws, schedule) for x0, draws in chains]
+
+
 def search(
     model: ObjectModel,
     seed_rot: FloatArray,
@@ -293,8 +321,9 @@ def search(
     rng: np.random.Generator,
     params: PlannerParams | None = None,
 ) -> list[GraspCandidate]:
-    """Anneal from the seed (``params.chains`` chains; none: only the poses on the demonstrated approach), try the
-    best distinct states and the demonstrated pose in pybullet; all candidates: near the demonstration first,
+    """Anneal from the seed (``params.chains`` chains, each with its own block of ``rng``'s uniforms, the later half
+    in a worker process beside this one when there are any; none: only the poses on the demonstrated approach), try
+    the best distinct states and the demonstrated pose in pybullet; all candidates: near the demonstration first,
     force closure first, then by closeness to the demonstration."""
     prm = params or PlannerParams()
     space = ApproachSpace(seed_rot, seed_pos, pivot_distance(model, seed_rot, seed_pos, prm.max_pivot_m))
@@ -302,20 +331,22 @@ def search(
     ang = prm.angle_limit_rad
     lower = np.array([-lim, -lim, prm.distance_range_m[0], -ang, -ang])
     upper = np.array([lim, lim, prm.distance_range_m[1], ang, ang])
-    jump = (upper - lower) / 2.0
-
-    def energy(x: FloatArray) -> float:
-        rot, pos = space.pose(x)
-        return contact_energy(model, rot, pos, barrett.dofs_from_eigengrasps(float(x[0]), float(x[1])))
+    box = SearchBox(lower, upper, (upper - lower) / 2.0)
 
     line: list[tuple[FloatArray, float]] = []
     for a1, (back, roll) in itertools.product(LINE_SPREADS, LINE_POSES):
         x = np.array([a1, 0.0, space.pivot_m + back, roll, 0.0])
-        line.insert(0, (x, energy(x)))
+        line.insert(0, (x, state_energy(model, space, x)))
     on_line = executing(model, space, line, prm, parts=1 if prm.chains else None)  # one worker while this anneals
     d0 = float(np.clip(space.pivot_m, *prm.distance_range_m))
-    starts = [np.array([a1, -1.0, d0, 0.0, 0.0]) for a1 in CHAIN_SPREADS[: prm.chains]]
-    traces = [anneal(energy, s, lower, upper, jump, prm.steps, rng, prm.schedule) for s in starts]
+    chains = [
+        (np.array([a1, -1.0, d0, 0.0, 0.0]), annealing_draws(rng, prm.steps, len(lower)))
+        for a1 in CHAIN_SPREADS[: prm.chains]
+    ]
+    here = len(chains) - len(chains) // 2 if worker_pool.workers() else len(chains)
+    beside = Beside(anneal_chains, model, space, box, chains[here:], prm.schedule) if chains[here:] else None
+    traces = anneal_chains(model, space, box, chains[:here], prm.schedule)
+    traces += beside.result() if beside is not None else []
     picks: list[tuple[FloatArray, float]] = []
     spread_bins = SPREAD_BINS if traces else ()  # chains=0: the demonstrated approach's poses only
     if traces:
@@ -327,7 +358,7 @@ def search(
     for lo, hi in itertools.pairwise(spread_bins):
         sel = np.flatnonzero((spreads >= lo) & (spreads < hi))
         sub = AnnealTrace(pooled.states[sel], pooled.energies[sel], 0)
-        picks += [(sub.states[i], float(sub.energies[i])) for i in _select(sub, per_bin, upper - lower)]
+        picks += [(sub.states[i], float(sub.energies[i])) for i in _select(sub, per_bin, box.upper - box.lower)]
 
     out = [cand for part in on_line + executing(model, space, picks, prm) for cand in part.result()]
     out.sort(key=lambda c: (not c.near, rank_tier(c.quality), c.closeness))

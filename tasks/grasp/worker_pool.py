@@ -4,9 +4,10 @@ A plan's hold checks (``shake.shake_test``) and its executions of candidate pose
 build a pybullet client of their own, so they give the same result in any process. The planner sends them to
 ``workers()`` processes (one per core, two at most) and uses the results in the order a single process would:
 ``hold_budget.HoldBudget.first_that_holds`` checks the next candidates while the current one is being checked,
-``planner.search`` executes the poses on the demonstrated approach while it anneals and splits the annealed ones
-between the processes, ``settle.settled_wraps`` settles its candidates side by side. Every plan is the one a single
-process makes; a result not needed is dropped.
+``planner.search`` executes the poses on the demonstrated approach and anneals half of its chains (each with its own
+block of random draws) in the workers while it anneals the other half, and splits the annealed poses between the
+processes; ``settle.settled_wraps`` settles its candidates side by side. Every plan is the one a single process
+makes; a result not needed is dropped.
 
 The processes are started on first use, or by ``start`` (``tasks.learn.api.learn_descriptor`` starts them before
 it segments: about 1 s of CPU each to import pybullet, numpy and scipy), and kept for the life of the planner's.

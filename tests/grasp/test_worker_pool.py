@@ -17,12 +17,15 @@ from tasks.arrays import FloatArray
 from tasks.errors import GraspError
 from tasks.grasp import worker_pool
 from tasks.grasp.api import part_near, plan_on_model
+from tasks.grasp.anneal import Schedule, annealing_draws
 from tasks.grasp.hold_budget import HoldBudget
 from tasks.grasp.object_model import ObjectModel, build_object_model
 from tasks.grasp.planner import (
     ApproachSpace,
     GraspCandidate,
     PlannerParams,
+    SearchBox,
+    anneal_chains,
     execute_states,
     executing,
     pivot_distance,
@@ -120,6 +123,30 @@ def test_executions_in_parts_are_those_of_one_execution(
     in_parts = [cand for part in parts for cand in part.result()]
     assert len(in_parts) >= 2
     _same(in_parts, execute_states(model, space, picks, PlannerParams()))
+
+
+def test_chains_annealed_in_a_worker_are_those_annealed_here(
+    microwave: tuple[ObjectModel, FloatArray, FloatArray], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Annealing chains, each with its block of uniforms, in a worker and in this process, together or one by one:
+    the same states and energies, bit for bit (a chain's course depends on its start and its block alone)."""
+    monkeypatch.setenv(PROCESSES_ENV, "2")
+    model, pos, quat = microwave
+    rot = Rotation.from_quat(quat).as_matrix()
+    space = ApproachSpace(rot, pos, pivot_distance(model, rot, pos, 0.2))
+    upper = np.array([4.0, 4.0, 0.2, 0.4, 0.4])
+    lower = np.array([-4.0, -4.0, -0.03, -0.4, -0.4])
+    box = SearchBox(lower, upper, (upper - lower) / 2.0)
+    rng = np.random.default_rng(SEED)
+    chains = [(np.array([a1, -1.0, 0.05, 0.0, 0.0]), annealing_draws(rng, 60, 5)) for a1 in (-1.13, 0.87)]
+    here = anneal_chains(model, space, box, chains, Schedule())
+    beside = Beside(anneal_chains, model, space, box, chains[1:], Schedule()).result()
+    assert len(here) == 2
+    assert len(beside) == 1
+    np.testing.assert_array_equal(beside[0].states, here[1].states)
+    np.testing.assert_array_equal(beside[0].energies, here[1].energies)
+    assert beside[0].accepted == here[1].accepted > 0
+    assert not np.array_equal(here[0].states[1:], here[1].states[1:])
 
 
 def test_a_plan_with_workers_is_the_plan_of_one_process(
