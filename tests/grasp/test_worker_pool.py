@@ -16,8 +16,8 @@ from bench.cases.grasp import scene_cases
 from tasks.arrays import FloatArray
 from tasks.errors import GraspError
 from tasks.grasp import worker_pool
-from tasks.grasp.api import part_near, plan_on_model
 from tasks.grasp.anneal import Schedule, annealing_draws
+from tasks.grasp.api import part_near, plan_on_model
 from tasks.grasp.hold_budget import HoldBudget
 from tasks.grasp.object_model import ObjectModel, build_object_model
 from tasks.grasp.planner import (
