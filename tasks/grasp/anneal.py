@@ -78,22 +78,6 @@ def anneal(  # noqa: PLR0917 -- the annealing inputs, named at call sites
     lower: FloatArray,
     upper: FloatArray,
     jump: FloatArray,
-    steps: int,
-    rng: np.random.Generator,
-    schedule: Schedule | None = None,
-) -> AnnealTrace:
-    """Run ``steps`` annealing steps from ``start`` within [lower, upper], with a block of ``rng``'s uniforms
-    (``annealing_draws``); returns every evaluated state."""
-    x = np.asarray(start, dtype=np.float64)
-    return anneal_drawn(energy, x, lower, upper, jump, annealing_draws(rng, steps, len(x)), schedule)
-
-
-def anneal_drawn(  # noqa: PLR0917 -- the annealing inputs, named at call sites
-    energy: Callable[[FloatArray], float],
-    start: FloatArray,
-    lower: FloatArray,
-    upper: FloatArray,
-    jump: FloatArray,
     draws: FloatArray,
     schedule: Schedule | None = None,
 ) -> AnnealTrace:

@@ -27,7 +27,7 @@ from scipy.spatial.transform import Rotation
 
 from tasks.arrays import FloatArray, Vector3
 from tasks.grasp import barrett, closing, worker_pool
-from tasks.grasp.anneal import ILLEGAL_ENERGY, AnnealTrace, Schedule, anneal_drawn, annealing_draws
+from tasks.grasp.anneal import ILLEGAL_ENERGY, AnnealTrace, Schedule, anneal, annealing_draws
 from tasks.grasp.object_model import ObjectModel, load_object
 from tasks.grasp.quality import DEFAULT_MU, GraspQuality, grasp_quality
 from tasks.grasp.worker_pool import Beside
@@ -311,7 +311,7 @@ def anneal_chains(
 ) -> list[AnnealTrace]:
     """Anneal each (start (5,), uniforms ``annealing_draws``) of ``chains`` over ``state_energy``, in order."""
     energy = functools.partial(state_energy, model, space)
-    return [anneal_drawn(energy, x0, box.lower, box.upper, box.jump, draws, schedule) for x0, draws in chains]
+    return [anneal(energy, x0, box.lower, box.upper, box.jump, draws, schedule) for x0, draws in chains]
 
 
 def search(
