@@ -295,11 +295,15 @@ def state_energy(model: ObjectModel, space: ApproachSpace, x: FloatArray) -> flo
 
 @dataclass(frozen=True)
 class SearchBox:
-    """The annealing's bounds on x = (a1, a2, d, θ1, θ2): ``lower``, ``upper`` (5,), neighbour ``jump`` (5,)."""
+    """The annealing's bounds on x = (a1, a2, d, θ1, θ2): ``lower``, ``upper`` (5,)."""
 
     lower: FloatArray
     upper: FloatArray
-    jump: FloatArray
+
+    @property
+    def jump(self) -> FloatArray:
+        """(5,) neighbour scale: half the box's width in each variable."""
+        return (self.upper - self.lower) / 2.0
 
 
 def anneal_chains(
@@ -331,7 +335,7 @@ def search(
     ang = prm.angle_limit_rad
     lower = np.array([-lim, -lim, prm.distance_range_m[0], -ang, -ang])
     upper = np.array([lim, lim, prm.distance_range_m[1], ang, ang])
-    box = SearchBox(lower, upper, (upper - lower) / 2.0)
+    box = SearchBox(lower, upper)
 
     line: list[tuple[FloatArray, float]] = []
     for a1, (back, roll) in itertools.product(LINE_SPREADS, LINE_POSES):

@@ -136,7 +136,7 @@ def test_chains_annealed_in_a_worker_are_those_annealed_here(
     space = ApproachSpace(rot, pos, pivot_distance(model, rot, pos, 0.2))
     upper = np.array([4.0, 4.0, 0.2, 0.4, 0.4])
     lower = np.array([-4.0, -4.0, -0.03, -0.4, -0.4])
-    box = SearchBox(lower, upper, (upper - lower) / 2.0)
+    box = SearchBox(lower, upper)
     rng = np.random.default_rng(SEED)
     chains = [(np.array([a1, -1.0, 0.05, 0.0, 0.0]), annealing_draws(rng, 60, 5)) for a1 in (-1.13, 0.87)]
     here = anneal_chains(model, space, box, chains, Schedule())
