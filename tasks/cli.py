@@ -2,7 +2,8 @@
 
 Each command lives in ``tasks/commands/<name>.py`` with ``add_arguments(parser)`` and ``run(args) -> int``.
 Those modules import nothing heavy at the top, so start-up stays light: ``pbd ingest`` never imports
-Prefect, open3d or pybullet. A ``PbdError`` becomes one line on stderr and exit 2.
+Prefect, open3d or pybullet. A ``PbdError``, or a file-system or memory fault no stage caught, becomes one line on
+stderr and exit 2; any other exception is a bug, reported as one line and exit 1 (``PBD_DEBUG=1`` re-raises it).
 """
 
 from __future__ import annotations
@@ -74,11 +75,32 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         code: int = _module(args.command).run(args)
     except PbdError as err:
-        print(f"pbd {args.command}: {err}", file=sys.stderr)
-        return 2
+        return _fail(args.command, str(err), 2)
+    except OSError as err:  # an environment fault no stage turned into a PbdError: name the file and the cause
+        where = f"{err.filename}: " if err.filename else ""
+        return _fail(args.command, f"{where}{err.strerror or err}", 2)
+    except MemoryError:
+        return _fail(args.command, "out of memory (the input is larger than this machine can hold)", 2)
     except KeyboardInterrupt:
         print(f"pbd {args.command}: interrupted", file=sys.stderr)
         return 130
+    except Exception as err:  # a bug: one line for the user, the traceback with PBD_DEBUG=1
+        if os.environ.get("PBD_DEBUG"):
+            raise
+        return _fail(args.command, f"internal error {type(err).__name__}: {err} (PBD_DEBUG=1 shows where)", 1)
+    return code
+
+
+MAX_ERROR_CHARS = 400
+"""Longest error line printed: a whole path and a cause fit; a quoted input never floods the terminal."""
+
+
+def _fail(command: str, message: str, code: int) -> int:
+    """Print ``pbd COMMAND: message`` as one line of at most ``MAX_ERROR_CHARS`` and return ``code``."""
+    line = " ".join(f"pbd {command}: {message}".split())
+    if len(line) > MAX_ERROR_CHARS:
+        line = line[: MAX_ERROR_CHARS - 3] + "..."
+    print(line, file=sys.stderr)
     return code
 
 
