@@ -40,7 +40,15 @@ from schemas.limits import MAX_DESCRIPTOR_BYTES
 from tasks.atomic import checkpoint, fsync_dir, write_bytes_atomic, write_errors
 from tasks.errors import DescriptorError, PbdError, StoreError
 
-__all__ = ["DEFAULT_STORE", "PutResult", "Store", "VersionEntry", "resolve_store_root", "write_bytes_atomic"]
+__all__ = [
+    "DEFAULT_STORE",
+    "PutResult",
+    "Store",
+    "VersionEntry",
+    "model_sha256",
+    "resolve_store_root",
+    "write_bytes_atomic",
+]
 
 DEFAULT_STORE = Path("data/store")
 _REF_VERSION = re.compile(r"^(?P<name>[A-Za-z0-9][A-Za-z0-9._-]*)@(?P<ver>v\d+|latest)$")
@@ -222,7 +230,7 @@ class Store:
         from schemas.tables import OBJECT_MODEL_SCHEMA  # noqa: PLC0415
 
         pts = np.ascontiguousarray(np.asarray(points_xyz, dtype=np.float32).reshape(-1, 3))
-        sha = hashlib.sha256(pts.tobytes()).hexdigest()
+        sha = model_sha256(pts)
         path = self.model_path(sha)
         if path.exists():
             return sha, path
@@ -401,6 +409,14 @@ class Store:
             msg = f"cannot read: {err.strerror}"
             raise DescriptorError(path, msg) from err
         return Descriptor.from_bytes(data, source=str(path))
+
+
+def model_sha256(points_xyz: Any) -> str:
+    """The key of an (n, 3) model point cloud in ``models/``: sha256 of its float32 x, y, z bytes."""
+    import numpy as np  # noqa: PLC0415
+
+    pts = np.ascontiguousarray(np.asarray(points_xyz, dtype=np.float32).reshape(-1, 3))
+    return hashlib.sha256(pts.tobytes()).hexdigest()
 
 
 def _read_index(path: Path) -> list[VersionEntry]:
