@@ -4,7 +4,8 @@ Every store write goes through a temporary file or folder that is renamed (or ha
 replace) into place, so a reader or a killed writer never sees half a file. Each step of a protocol calls
 ``checkpoint(step, path)``; with ``$PBD_FAULT_STEP`` set to that step the process dies there
 (``$PBD_FAULT_MODE=kill``, exit ``FAULT_KILL_EXIT`` without clean-up, as after ``kill -9``) or the step fails
-with ``OSError(ENOSPC)`` (``$PBD_FAULT_MODE=enospc``, the default), as on a full disk. The hook is how the
+with the ``OSError`` of that errno name (``$PBD_FAULT_MODE=ENOSPC``, the default, as on a full disk; ``EROFS``
+for a read-only file system, ``EACCES`` for no permission). The hook is how the
 fault-injection tests reach every step; it costs one environment look-up per step otherwise.
 """
 
@@ -22,7 +23,7 @@ from tasks.errors import StoreError
 FAULT_STEP_ENV = "PBD_FAULT_STEP"
 """Environment variable naming the protocol step at which to fail (test hook)."""
 FAULT_MODE_ENV = "PBD_FAULT_MODE"
-"""``kill`` (die at the step) or ``enospc`` (raise ``OSError(ENOSPC)`` there; the default)."""
+"""``kill`` (die at the step) or an errno name such as ``ENOSPC`` (the default), ``EROFS``, ``EACCES`` (raise it)."""
 FAULT_KILL_EXIT = 137
 """Exit status of a process killed by the hook: what a shell reports after ``kill -9``."""
 
@@ -34,9 +35,11 @@ def checkpoint(step: str, path: Path) -> None:
     """A step of a write protocol has completed; the fault hook may kill the process or fail the step here."""
     if os.environ.get(FAULT_STEP_ENV) != step:
         return
-    if os.environ.get(FAULT_MODE_ENV, "enospc") == "kill":
+    mode = os.environ.get(FAULT_MODE_ENV, "ENOSPC").upper()
+    if mode == "KILL":
         os._exit(FAULT_KILL_EXIT)
-    raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
+    code = getattr(errno, mode, errno.ENOSPC)
+    raise OSError(code, os.strerror(code), str(path))
 
 
 def os_error_text(err: OSError) -> str:

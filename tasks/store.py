@@ -334,7 +334,8 @@ class Store:
 
         Under the name's lock: repair (see ``_repaired_index``), write ``v<N>.json``, then rewrite
         ``index.json`` to list it. A kill between the two leaves a whole version file that the next write
-        adopts. A failed write is a ``StoreError`` naming the path and the cause.
+        adopts; a failed index write removes the version file again. A failed write is a ``StoreError`` naming
+        the path and the cause.
         """
         text = desc.to_json()
         folder = self.descriptor_dir(desc.name)
@@ -345,8 +346,7 @@ class Store:
                 last = entries[-1]
                 return PutResult(desc.name, last.version, last.id, False, folder / f"v{last.version}.json")
             version = entries[-1].version + 1 if entries else 1
-            path = folder / f"v{version}.json"
-            write_bytes_atomic(path, text.encode(), step="descriptor.version")
+            path = folder / f"v{version}.json"  # absent: the repair adopted or quarantined any orphan
             entry = VersionEntry(
                 version=version,
                 id=desc.id,
@@ -355,7 +355,13 @@ class Store:
                 parameters=desc.parameters,
                 code_version=desc.code_version,
             )
-            _write_index(folder / "index.json", [*entries, entry])
+            try:
+                write_bytes_atomic(path, text.encode(), step="descriptor.version")
+                _write_index(folder / "index.json", [*entries, entry])
+            except BaseException:  # nothing left behind: the version file is ours while the lock is held
+                if not _lists(folder / "index.json", version):
+                    path.unlink(missing_ok=True)
+                raise
         return PutResult(desc.name, version, desc.id, True, path)
 
     def descriptor_path(self, name: str, version: int) -> Path:
@@ -431,6 +437,14 @@ def _read_index(path: Path) -> list[VersionEntry]:
         msg = "corrupt index (versions not 1..N in order); the next write under this name rebuilds it"
         raise StoreError(path, msg)
     return entries
+
+
+def _lists(index: Path, version: int) -> bool:
+    """True when ``index`` is readable and lists ``version``."""
+    try:
+        return any(e.version == version for e in _read_index(index))
+    except StoreError:
+        return False
 
 
 def _write_index(path: Path, entries: list[VersionEntry]) -> None:
