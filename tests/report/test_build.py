@@ -109,4 +109,4 @@ def test_summary_markdown_escapes_file_names_and_errors() -> None:
         r"| x \| y \!\[img\](evil.png) \<b\>\_z\_.mcap | - | - | failed: bad \`code\` \[link\](u) \| forged \| "
         r"row \| | - | - |"
     )
-    assert md.count("\n| ") == 2  # the header row and this one: the error's line break made no row of its own
+    assert md.count("\n| ") == 3  # header, rule and this row: the line break in the error made no row of its own
