@@ -230,7 +230,7 @@ def recording_variants(recordings: tuple[Path, ...], rng: np.random.Generator) -
     ]
 
 
-def value_recording(folder: Path, rng: np.random.Generator, index: int) -> tuple[str, Path]:
+def value_recording(folder: Path, rng: np.random.Generator, stem: str) -> tuple[str, Path]:
     """A recording written by the real writer whose marker values are non-finite, absurd or out of order."""
     from tests.learn.synthetic import make_demo, write_recording
 
@@ -247,7 +247,8 @@ def value_recording(folder: Path, rng: np.random.Generator, index: int) -> tuple
     else:
         pts[rows] = {"1e300": 1e300, "inf": np.inf, "nan": np.nan}[kind]
     demo.markers[name] = (t, pts)
-    path = folder / f"values-{index}.mcap"
+    path = folder / f"{stem}.mcap"
+    path.unlink(missing_ok=True)  # a re-run of the same seed writes the same case again
     write_recording(demo, path)
     return f"values {kind}", path
 
@@ -314,7 +315,7 @@ def make_cases(inputs: Inputs, seed: int, counts: dict[str, int]) -> list[Case]:
 
     def recording_case(group: str, i: int) -> Case:
         if i % 5 == 4:
-            label, path = value_recording(folder, rng, i)
+            label, path = value_recording(folder, rng, f"{group}-values-{i}")
             return Case(group, label, (group, str(path)))
         variants = recording_variants(inputs.recordings, rng)
         label, suffix, data = variants[i % len(variants)]
