@@ -17,8 +17,9 @@ MAX_DESCRIPTOR_BYTES = 1 << 20
 """Largest descriptor file read: a chain of ``MAX_PRIMITIVES`` primitives with their fit summaries is tens of KB."""
 MAX_PRIMITIVES = 64
 """Primitives in a chain: one demonstration of one object shows a handful of motions, never dozens."""
-MAX_MARKERS = 256
-"""Marker names per primitive: a motion-capture rig on one object tracks at most a few hundred markers."""
+MAX_ARRAY_ITEMS = 256
+"""Items in any JSON array: the longest of the layout is a primitive's marker names, and a motion-capture rig on
+one object tracks at most a few hundred markers."""
 MAX_DEPTH = 32
 """Nesting of JSON containers: the layout nests five levels; free-form ``fit`` and ``parameters`` a few more."""
 MAX_NAME_CHARS = 200
@@ -41,41 +42,35 @@ def clip(text: str, limit: int = MAX_MESSAGE_CHARS) -> str:
     return flat if len(flat) <= limit else flat[: limit - 3] + "..."
 
 
-def _depth(doc: Any) -> int:
-    """Nesting depth of JSON containers, counted without recursion (a crafted file may nest thousands deep)."""
-    deepest = 0
-    stack: list[tuple[Any, int]] = [(doc, 1)]
+def _walk(doc: Any, source: str) -> None:
+    """Nesting within ``MAX_DEPTH`` and arrays within ``MAX_ARRAY_ITEMS``, checked without recursion (a crafted
+    file may nest thousands deep)."""
+    stack: list[tuple[Any, tuple[str, ...]]] = [(doc, ())]
     while stack:
-        value, level = stack.pop()
-        if isinstance(value, dict | list):
-            deepest = max(deepest, level)
-            if level > MAX_DEPTH:
-                return level
-            children = value.values() if isinstance(value, dict) else value
-            stack.extend((child, level + 1) for child in children)
-    return deepest
+        value, where = stack.pop()
+        if not isinstance(value, dict | list):
+            continue
+        if len(where) >= MAX_DEPTH:
+            msg = f"JSON nested deeper than {MAX_DEPTH} levels (at {clip('/'.join(where[:4]))}/...)"
+            raise DescriptorError(source, msg)
+        if isinstance(value, list) and len(value) > MAX_ARRAY_ITEMS:
+            msg = f"{clip('/'.join(where))}: array of {len(value)} items (limit {MAX_ARRAY_ITEMS})"
+            raise DescriptorError(source, msg)
+        items = value.items() if isinstance(value, dict) else enumerate(value)
+        stack.extend((child, (*where, str(key))) for key, child in items)
 
 
 def check_shape(doc: dict[str, Any], source: str) -> None:
     """Counts and nesting of a parsed descriptor within the limits (before the JSON Schema)."""
-    depth = _depth(doc)
-    if depth > MAX_DEPTH:
-        msg = f"JSON nested deeper than {MAX_DEPTH} levels"
-        raise DescriptorError(source, msg)
     name = doc.get("name")
     if isinstance(name, str) and len(name) > MAX_NAME_CHARS:
         msg = f"name of {len(name)} characters (limit {MAX_NAME_CHARS})"
         raise DescriptorError(source, msg)
     chain = doc.get("chain")
-    if isinstance(chain, list):
-        if len(chain) > MAX_PRIMITIVES:
-            msg = f"chain of {len(chain)} primitives (limit {MAX_PRIMITIVES})"
-            raise DescriptorError(source, msg)
-        for i, prim in enumerate(chain):
-            markers = prim.get("markers") if isinstance(prim, dict) else None
-            if isinstance(markers, list) and len(markers) > MAX_MARKERS:
-                msg = f"chain/{i}/markers: {len(markers)} names (limit {MAX_MARKERS})"
-                raise DescriptorError(source, msg)
+    if isinstance(chain, list) and len(chain) > MAX_PRIMITIVES:
+        msg = f"chain of {len(chain)} primitives (limit {MAX_PRIMITIVES})"
+        raise DescriptorError(source, msg)
+    _walk(doc, source)
 
 
 def _unit(values: Sequence[float], where: str, source: str) -> None:

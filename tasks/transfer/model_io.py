@@ -170,6 +170,8 @@ def _read_checked(path: Path, size: int, seed: int) -> Points:
             raise _with_reason(path, "unreadable or empty mesh", printed)
         cloud = o3d.io.read_point_cloud(path)
         points = np.asarray(cloud.points, dtype=np.float64).reshape(-1, 3)
+    if any(line.startswith("RPly:") for line in printed):  # RPly fills what it cannot parse with zeros
+        raise _with_reason(path, "corrupt PLY", [x for x in printed if x.startswith("RPly:")])
     if not np.isfinite(points).all(axis=1).any():
         raise _with_reason(path, "empty point cloud (no finite points)", printed)
     return _finite(points, str(path), seed)

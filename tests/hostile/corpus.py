@@ -124,6 +124,8 @@ def truncate(data: bytes, rng: np.random.Generator) -> bytes:
 # -- mutations of a descriptor ----------------------------------------------------------------------
 ABSURD = (0.0, -1.0, 1e6, 1e308, -1e308, 1e-320, 123456.0)
 NON_FINITE = ("NaN", "Infinity", "-Infinity")
+ID_CHARS = 100_000
+"""Documents longer than this keep their old id (only the shape limits meet them)."""
 
 
 def _leaves(doc: Any, path: tuple[Any, ...] = ()) -> list[tuple[Any, ...]]:
@@ -143,52 +145,78 @@ def _set(doc: Any, path: tuple[Any, ...], value: Any) -> None:
 
 def with_id(doc: dict[str, Any]) -> str:
     """The document as JSON text with its ``id`` recomputed from its content (so checks past the id run)."""
+    text = json.dumps(doc, indent=1)
+    if len(text) > ID_CHARS:  # the limits refuse it before its id is checked
+        return text
     body = {k: doc.get(k) for k in ("action", "object", "grasp", "chain")}
     with contextlib.suppress(Exception):
         doc["id"] = hashlib.sha256(canonical_json(body).encode()).hexdigest()
     return json.dumps(doc, indent=1)
 
 
-def descriptor_variants(original: str, rng: np.random.Generator) -> list[tuple[str, bytes]]:
-    """(label, bytes) of one hostile descriptor of each kind, drawn with ``rng``."""
-    doc: dict[str, Any] = json.loads(original)
-    data = original.encode()
-    leaves = _leaves(doc)
-    out: list[tuple[str, bytes]] = [("flip", flip(data, rng)), ("truncate", truncate(data, rng))]
+def _absurd_leaf(original: str, rng: np.random.Generator) -> bytes:
     d = json.loads(original)
-    path = leaves[int(rng.integers(len(leaves)))]
-    _set(d, path, float(rng.choice(ABSURD)))
-    out.append((f"absurd {'/'.join(map(str, path))}", with_id(d).encode()))
+    leaves = _leaves(d)
+    _set(d, leaves[int(rng.integers(len(leaves)))], float(rng.choice(ABSURD)))
+    return with_id(d).encode()
+
+
+def _non_finite_leaf(original: str, rng: np.random.Generator) -> bytes:
     d = json.loads(original)
-    path = leaves[int(rng.integers(len(leaves)))]
-    _set(d, path, 0.0)
-    text = with_id(d).replace("0.0", str(rng.choice(NON_FINITE)), 1)
-    out.append(("non-finite", text.encode()))
+    leaves = _leaves(d)
+    _set(d, leaves[int(rng.integers(len(leaves)))], 0.0)
+    return with_id(d).replace("0.0", str(rng.choice(NON_FINITE)), 1).encode()
+
+
+def _edited(original: str, edit: Callable[[dict[str, Any]], None]) -> bytes:
     d = json.loads(original)
-    d["chain"][0]["dir"] = [0.0, 0.0, 0.0]
-    out.append(("zero axis", with_id(d).encode()))
-    d = json.loads(original)
-    d["chain"][0]["extent"] = float(rng.choice([1e308, 1e6, 40.0]))
-    out.append(("huge extent", with_id(d).encode()))
-    d = json.loads(original)
-    d["chain"] = d["chain"] * int(rng.choice([33, 500, 20000]))
-    out.append(("many primitives", with_id(d).encode()))
-    d = json.loads(original)
-    d["grasp"]["eigengrasps"] = [0.1] * int(rng.choice([3, 1000, 200000]))
-    out.append(("long array", with_id(d).encode()))
+    edit(d)
+    return with_id(d).encode()
+
+
+def _nested(original: str, rng: np.random.Generator) -> bytes:
     depth = int(rng.choice([40, 900, 5000]))
-    d = json.loads(original)
-    d["chain"][0]["fit"] = json.loads("[" * depth + "]" * depth) if depth < 900 else {}
-    text = with_id(d) if depth < 900 else with_id(d).replace('"fit": {}', '"fit": ' + "[" * depth + "]" * depth)
-    out.append((f"nested {depth}", text.encode()))
-    encoding = str(rng.choice(["utf-16", "utf-32", "utf-8-sig", "latin-1"]))
-    out.append((f"encoding {encoding}", original.replace("bottle", "bouteille é").encode(encoding)))
-    out.append(("random bytes", rng.bytes(int(rng.integers(0, 4096)))))
-    d = json.loads(original)
+    text = with_id(json.loads(original)).replace('"action"', '"deep": ' + "[" * depth + "]" * depth + ', "action"', 1)
+    return text.encode()
+
+
+def _wrong_type(original: str, rng: np.random.Generator) -> bytes:
     key = str(rng.choice(["chain", "grasp", "object", "provenance", "name"]))
-    d[key] = [None, 7, "x", [], {}][int(rng.integers(5))] if key != "name" else "../../etc/x"
-    out.append((f"wrong type {key}", with_id(d).encode()))
-    return out
+    value = [None, 7, "x", [], {}][int(rng.integers(5))] if key != "name" else "../../etc/x"
+    return _edited(original, lambda d: d.__setitem__(key, value))
+
+
+DESCRIPTOR_KINDS: tuple[tuple[str, Callable[[str, np.random.Generator], bytes]], ...] = (
+    ("flip", lambda o, rng: flip(o.encode(), rng)),
+    ("truncate", lambda o, rng: truncate(o.encode(), rng)),
+    ("absurd value", _absurd_leaf),
+    ("non-finite", _non_finite_leaf),
+    ("zero axis", lambda o, _: _edited(o, lambda d: d["chain"][0].__setitem__("dir", [0.0, 0.0, 0.0]))),
+    (
+        "huge extent",
+        lambda o, rng: _edited(o, lambda d: d["chain"][0].__setitem__("extent", float(rng.choice([1e308, 1e6, 40.0])))),
+    ),
+    (
+        "many primitives",
+        lambda o, rng: _edited(o, lambda d: d.__setitem__("chain", d["chain"] * int(rng.choice([33, 500, 20000])))),
+    ),
+    (
+        "long array",
+        lambda o, rng: _edited(
+            o, lambda d: d["grasp"].__setitem__("eigengrasps", [0.1] * int(rng.choice([3, 1000, 200000])))
+        ),
+    ),
+    ("deep nesting", _nested),
+    (
+        "encoding",
+        lambda o, rng: o.replace("bottle", "bouteille é").encode(
+            str(rng.choice(["utf-16", "utf-32", "utf-8-sig", "latin-1"]))
+        ),
+    ),
+    ("random bytes", lambda _, rng: rng.bytes(int(rng.integers(0, 4096)))),
+    ("wrong type", _wrong_type),
+)
+"""Kinds of hostile descriptor, each a function of the original text and the generator."""
 
 
 # -- mutations of a model file and of a recording ---------------------------------------------------
@@ -287,8 +315,8 @@ def make_cases(inputs: Inputs, seed: int, counts: dict[str, int]) -> list[Case]:
     makers: dict[str, Callable[[int], Case]] = {}
 
     def descriptor_case(group: str, i: int) -> Case:
-        variants = descriptor_variants(original, rng)
-        label, data = variants[i % len(variants)]
+        label, kind = DESCRIPTOR_KINDS[i % len(DESCRIPTOR_KINDS)]
+        data = kind(original, rng)
         path = _file(folder, f"{group}-{i}", ".json", data)
         if group == "diff":
             pair = (path, good) if rng.random() < 0.5 else (good, path)

@@ -182,8 +182,8 @@ def test_ply_without_end_header_and_oversized_files_are_refused(tmp_path: Path, 
 
 def test_what_open3d_prints_joins_the_one_line_error(tmp_path: Path, capfd) -> None:
     path = tmp_path / "cut.ply"
-    path.write_bytes(f"ply\nformat ascii 1.0\nelement vertex 3\n{PLY_XYZ}end_header\nx y z\nq r s\n".encode())
-    with pytest.raises(TransferError, match=r"empty point cloud \(no finite points\) \(RPly: "):
+    path.write_bytes(f"ply\nformat ascii 1.0\nelement vertex 3\n{PLY_XYZ}end_header\nx y z\nq r s\nt u v\n".encode())
+    with pytest.raises(TransferError, match=r"corrupt PLY \(RPly: Error reading 'x' of 'vertex' number 0\)"):
         read_model_file(path)
     assert "RPly" not in capfd.readouterr().err
 
