@@ -59,7 +59,8 @@ def _usable_samples(pts: Points) -> tuple[npt.NDArray[np.bool_], str]:
         for count, what in ((nan.sum(), "NaN"), (inf.sum(), "infinite"), (far.sum(), f"beyond {MAX_COORDINATE_M:g} m"))
         if count
     ]
-    return ~(nan | inf | far), ", ".join(parts)
+    keep: npt.NDArray[np.bool_] = np.logical_not(nan | inf | far)
+    return keep, ", ".join(parts)
 
 
 def prepare(rec: RecordingData, sigma_floor_m: float, hand_pattern: str) -> PreparedRecording:
