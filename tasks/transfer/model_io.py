@@ -25,6 +25,8 @@ MESH_SAMPLES = 8192
 """Points sampled uniformly over a mesh's surface."""
 MAX_MODEL_POINTS = 10_000_000
 """Points a model file may declare: 10 million (240 MB as float64) keep reading within a few hundred MB."""
+MAX_MODEL_COORDINATE_M = 1000.0
+"""Model coordinates beyond this (m) are corrupt values or a wrong unit, not an object: those points are dropped."""
 MAX_MODEL_FILE_BYTES = 512 << 20
 """Largest model file read: 10 million points as ASCII text take about 300 MB."""
 REGISTRATION_POINTS = 100_000
@@ -40,10 +42,13 @@ _PLY_HEADER_BYTES = 1 << 16
 
 
 def _finite(points: Points, where: str, seed: int = 0) -> Points:
-    """The finite rows of ``points`` (n, 3); a uniform random subset of ``REGISTRATION_POINTS`` when denser."""
-    pts = points[np.isfinite(points).all(axis=1)] if points.size else points.reshape(0, 3)
+    """The finite rows of ``points`` (n, 3) within ``MAX_MODEL_COORDINATE_M``; a uniform random subset of
+    ``REGISTRATION_POINTS`` when denser."""
+    with np.errstate(invalid="ignore"):
+        usable = (np.abs(points) <= MAX_MODEL_COORDINATE_M).all(axis=1) if points.size else None
+    pts = points[usable] if usable is not None else points.reshape(0, 3)
     if pts.shape[0] == 0:
-        msg = f"{where}: empty point cloud (no finite points)"
+        msg = f"{where}: empty point cloud (no finite points within {MAX_MODEL_COORDINATE_M:g} m)"
         raise TransferError(msg)
     if pts.shape[0] > REGISTRATION_POINTS:
         keep = np.sort(np.random.default_rng(seed).choice(pts.shape[0], REGISTRATION_POINTS, replace=False))
