@@ -54,7 +54,7 @@ def fit_circle_3d(points: Array) -> tuple[Array, Array, float, float]:
     """Plane and circle through ``points`` (n, 3) m: centre, unit normal, radius (m) and RMS residual (m)
     (plane by SVD, algebraic circle then Gauss-Newton on the geometric distance)."""
     mean = points.mean(axis=0)
-    _, _, vt = np.linalg.svd(points - mean)
+    _, _, vt = np.linalg.svd(points - mean, full_matrices=False)
     e1, e2, normal = vt[0], vt[1], vt[2]
     uv = np.stack([(points - mean) @ e1, (points - mean) @ e2], axis=1)
     a = np.column_stack([2 * uv, np.ones(len(uv))])
@@ -202,7 +202,7 @@ def _sturm_case(path: Path, mechanism: str, radius_m: float | None, tags: tuple[
             radius_m = fitted
     else:
         centred = points - points.mean(axis=0)
-        _, _, vt = np.linalg.svd(centred)
+        _, _, vt = np.linalg.svd(centred, full_matrices=False)
         rms = float(np.sqrt(np.mean(np.sum((centred - np.outer(centred @ vt[0], vt[0])) ** 2, axis=1))))
     return Case(
         name=f"{path.parent.parent.name}/{path.parent.name}/{path.stem}"
@@ -249,7 +249,7 @@ def _drawer_txt_case(path: Path) -> Case:
     positions, quats = rows[:, :3], rows[:, 3:7]
     t = _times(len(rows), DRAWER_TXT_HZ)
     centred = positions - positions.mean(axis=0)
-    _, _, vt = np.linalg.svd(centred)
+    _, _, vt = np.linalg.svd(centred, full_matrices=False)
     axis = vt[0]
     s = (positions - positions[0]) @ axis
     if s[np.argmax(np.abs(s))] < 0:

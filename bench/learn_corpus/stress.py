@@ -10,6 +10,8 @@ poses, open-then-close.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from bench.learn_corpus.case import Case, PoseTrack, Track
@@ -170,8 +172,9 @@ def _static_points(rng: np.random.Generator, mech: Mechanism) -> list[Array]:
     return pts
 
 
-def stress_case(seed: int, index: int) -> Case:
-    """Case ``index`` of the stress corpus drawn with ``seed``."""
+def stress_case(seed: int, index: int, *, clean: bool = False) -> Case:
+    """Case ``index`` of the stress corpus drawn with ``seed``; ``clean`` leaves out position noise, outliers and
+    repeated samples (the same motion, stamps, gaps and names)."""
     rng = np.random.default_rng([seed, index])
     mech = draw_mechanism(rng)
     tags: list[str] = [mech.name]
@@ -183,8 +186,8 @@ def stress_case(seed: int, index: int) -> Case:
         t = reach[1] + rng.uniform(0.1, 0.5)
     open_close = rng.uniform() < (0.35 if len(mech.joints) == 1 else 0.2)
     moves, t = _schedule(rng, mech, t, open_close)
-    retreat = (t + rng.uniform(0.1, 0.5), 0.0)
-    retreat = (retreat[0], retreat[0] + rng.uniform(0.6, 1.5))
+    retreat_start = t + rng.uniform(0.1, 0.5)
+    retreat = (retreat_start, retreat_start + rng.uniform(0.6, 1.5))
     duration = (retreat[1] if hand_markers or wrist else t) + rng.uniform(0.3, 1.0)
     hand = HandPath(rng, mech, moves, reach, retreat)
 
@@ -201,11 +204,17 @@ def stress_case(seed: int, index: int) -> Case:
         names = marker_names(rng, len(obj) + len(static) + len(hand_offsets))
     roles = ["object"] * len(obj) + ["static"] * len(static) + ["hand"] * len(hand_offsets)
     local = obj + static + hand_offsets
+    pose = rng.uniform() < 0.25
+    pose_only = pose and rng.uniform() < 0.35
+    body = str(rng.choice(RIGID_BODY_NAMES)).format(j=int(rng.integers(1, 5)))
+    body_origin = np.mean(obj, axis=0)
+    body_rot0 = random_rotation(rng)
 
     hz = _loguniform(rng, 10.0, 240.0)
     timing = str(rng.choice(["uniform", "jitter", "uneven"], p=[0.4, 0.35, 0.25]))
     asynchronous = rng.uniform() < 0.3
-    truth = truth_of(mech, moves, names[0])
+    carrier, carrier_name = (replace(mech, handle=body_origin), body) if pose_only else (mech, names[0])
+    truth = truth_of(carrier, moves, carrier_name)
     min_path = min(p.extent * (p.radius_m if p.radius_m is not None else 1.0) for p in truth)
     noise_m = _loguniform(rng, 1e-4, min(0.02, min_path / MIN_PATH_PER_SIGMA))
     aniso = rng.uniform() < 0.3
@@ -217,6 +226,7 @@ def stress_case(seed: int, index: int) -> Case:
     repeats = rng.uniform() < 0.1
     sparse = hz >= 40.0 and rng.uniform() < 0.15
     shared_t = stamps(rng, hz, duration, timing)
+    gain = 0.0 if clean else 1.0
 
     markers: dict[str, Track] = {}
     for k, (name, role, x) in enumerate(zip(names, roles, local, strict=True)):
@@ -231,46 +241,38 @@ def stress_case(seed: int, index: int) -> Case:
         else:
             rot, pos = hand.pose(tm)
             xyz = pos + rot @ x
-        xyz = xyz + noise(rng, tm, sigma_lat, noise_m, depth_dir=depth_dir, corr_s=corr_s)
+        xyz = xyz + gain * noise(rng, tm, sigma_lat, noise_m, depth_dir=depth_dir, corr_s=corr_s)
         if outliers:
-            xyz = add_outliers(rng, xyz, noise_m)
+            spoiled = add_outliers(rng, xyz, noise_m)
+            xyz = xyz if clean else spoiled
         if repeats:
-            xyz = hold_repeats(rng, xyz)
+            spoiled = hold_repeats(rng, xyz)
+            xyz = xyz if clean else spoiled
         if gaps:
             xyz = add_gaps(rng, tm, xyz, keep_before_s=0.3)
         if sparse:
             tm, xyz = thin(rng, tm, xyz, rng.uniform(max(0.2, 12.0 / hz), 0.5))
-        markers[name] = (tm, xyz)
+        if not (pose_only and role == "object"):
+            markers[name] = (tm, xyz)
     order = rng.permutation(len(markers))
     keys = list(markers)
     markers = {keys[i]: markers[keys[i]] for i in order}
 
     poses: dict[str, PoseTrack] = {}
-    if rng.uniform() < 0.25:
-        origin = np.mean(obj, axis=0)
-        rot0 = random_rotation(rng)
+    if pose:
         rot, trans = chain_transform(mech.joints, joint_values(moves, len(mech.joints), shared_t))
-        pos = (
-            np.einsum("nij,j->ni", rot, origin)
-            + trans
-            + noise(rng, shared_t, sigma_lat, noise_m, depth_dir=depth_dir, corr_s=corr_s)
-        )
-        rots = rotation_noise(rng, len(shared_t), min(0.05, noise_m / MARKER_SPACING_M)) @ rot @ rot0
-        body = str(rng.choice(RIGID_BODY_NAMES)).format(j=int(rng.integers(1, 5)))
-        poses[body] = (shared_t, pos, quat_from_matrix(rots))
-        tags.append("pose")
-        if rng.uniform() < 0.35:
-            for name, role in zip(names, roles, strict=True):
-                if role == "object":
-                    del markers[name]
-            tags.append("pose-only")
+        pos_noise = noise(rng, shared_t, sigma_lat, noise_m, depth_dir=depth_dir, corr_s=corr_s)
+        pos = np.einsum("nij,j->ni", rot, body_origin) + trans + gain * pos_noise
+        rot_noise = rotation_noise(rng, len(shared_t), gain * min(0.05, noise_m / MARKER_SPACING_M))
+        poses[body] = (shared_t, pos, quat_from_matrix(rot_noise @ rot @ body_rot0))
+        tags += ["pose", "pose-only"] if pose_only else ["pose"]
     wrist_track: PoseTrack | None = None
     if wrist:
         tw = stamps(rng, rng.uniform(30.0, 120.0), duration, "jitter")
         rot, pos = hand.pose(tw)
         offset = np.array([-0.08, 0.0, 0.0])
-        wpos = pos + rot @ offset + rng.normal(0.0, 0.001, size=(len(tw), 3))
-        wrot = rotation_noise(rng, len(tw), np.radians(0.5)) @ rot
+        wpos = pos + rot @ offset + gain * rng.normal(0.0, 0.001, size=(len(tw), 3))
+        wrot = rotation_noise(rng, len(tw), gain * np.radians(0.5)) @ rot
         wrist_track = (tw, wpos, quat_from_matrix(wrot))
 
     flags = {
