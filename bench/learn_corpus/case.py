@@ -7,7 +7,7 @@ one world frame, quaternions ``[x, y, z, w]``. ``write_case`` turns a case into 
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -53,7 +53,8 @@ class Case:
     ``markers``: name -> (t_s (n,), xyz (n, 3) m; NaN rows are occlusions); ``poses``: rigid body -> (t_s, xyz,
     quat xyzw); ``wrist``: (t_s, xyz, quat) or None; ``noise_m``: largest per-axis sigma of the position noise;
     ``hz``: nominal rate; ``check_axis``: whether the truth axis is known precisely enough to score;
-    ``radius_tol_m``: tolerance on the radius, when the radius is part of "right".
+    ``radius_tol_m``: tolerance on the radius, when the radius is part of "right"; ``roles``: what each marker or
+    rigid body is ("object", "static", "hand", "body"), for diagnostics only (never written to the recording).
     """
 
     name: str
@@ -66,6 +67,7 @@ class Case:
     tags: tuple[str, ...] = ()
     check_axis: bool = True
     radius_tol_m: float | None = None
+    roles: dict[str, str] = field(default_factory=dict)
 
     @property
     def kinds(self) -> tuple[str, ...]:

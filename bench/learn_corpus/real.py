@@ -71,7 +71,7 @@ def fit_circle_3d(points: Array) -> tuple[Array, Array, float, float]:
     return mean + centre[0] * e1 + centre[1] * e2, normal, abs(radius), float(np.sqrt(np.mean(resid**2)))
 
 
-def _motion_span(points: Array, t: Array, frac: float = 0.05) -> tuple[float, float]:
+def _motion_span(points: Array, t: Array, frac: float = 0.02) -> tuple[float, float]:
     """First time the track leaves, and first time it reaches, ``frac`` of its start-to-end distance (s)."""
     total = float(np.linalg.norm(points[-1] - points[0]))
     away = np.linalg.norm(points - points[0], axis=1) > frac * total
@@ -217,6 +217,7 @@ def _sturm_case(path: Path, mechanism: str, radius_m: float | None, tags: tuple[
         tags=("real", "sturm", mechanism, *tags),
         check_axis=False,
         radius_tol_m=RADIUS_TOL_M if kind == "rotation" else None,
+        roles={"/marker": "object"},
     )
 
 
@@ -240,6 +241,7 @@ def _pose_turn_case(name: str, positions: Array, quats: Array, hz: float, tags: 
         tags=("real", "pose", *tags, *(("open-close",) if len(truth) > 1 else ())),
         check_axis=False,
         radius_tol_m=RADIUS_TOL_M,
+        roles={"/tag": "body"},
     )
 
 
@@ -275,6 +277,7 @@ def _drawer_txt_case(path: Path) -> Case:
         tags=("real", "pose", "camera", "open-close", "sparse"),
         check_axis=False,
         radius_tol_m=None,
+        roles={"/tag": "body"},
     )
 
 

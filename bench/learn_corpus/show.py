@@ -6,6 +6,7 @@ python -m bench.learn_corpus.show [--seed N] [--n N] [--real] [--png PATH]
 from __future__ import annotations
 
 import argparse
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
@@ -34,17 +35,28 @@ def summary_lines(cases: list[Case]) -> list[str]:
             f"{c.name:<44} {c.hz:6.1f} {1000 * c.noise_m:9.2f} {len(c.markers):3d} {len(c.poses):3d} "
             f"{'y' if c.wrist is not None else '-':>3}  {_truth_text(c)} | {','.join(c.tags)}"
         )
+    counts = Counter(tag for c in cases for tag in c.tags)
+    lines.append(f"{len(cases)} cases; tags: " + ", ".join(f"{tag} {n}" for tag, n in counts.most_common()))
+    rates = np.array([c.hz for c in cases])
+    noise = np.array([1000 * c.noise_m for c in cases])
+    lines.append(
+        f"rate {rates.min():.0f}-{rates.max():.0f} Hz (median {np.median(rates):.0f}); "
+        f"noise {noise.min():.2f}-{noise.max():.2f} mm (median {np.median(noise):.2f})"
+    )
     return lines
 
 
 def draw(cases: list[Case], path: Path) -> None:
-    """A PNG of the tracks of up to nine cases: each stream's x, y, z against time, truth spans shaded."""
+    """A PNG of up to nine cases (one per folder): x, y, z of each stream against time, truth spans shaded."""
     import matplotlib as mpl
 
     mpl.use("Agg")
     import matplotlib.pyplot as plt
 
-    shown = cases[:9]
+    groups: dict[str, Case] = {}
+    for case in cases:
+        groups.setdefault(case.name.rsplit("/", 1)[0] if "/" in case.name else case.name, case)
+    shown = list(groups.values())[:9]
     fig, axes = plt.subplots(len(shown), 1, figsize=(12, 2.3 * len(shown)), squeeze=False)
     for ax, case in zip(axes[:, 0], shown, strict=True):
         streams = [(n, t, xyz) for n, (t, xyz) in case.markers.items()]
