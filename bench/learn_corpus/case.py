@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bench.learn_corpus.rotations import Array, slerp
+from bench.learn_corpus.rotations import Array, BoolArray, IntArray, slerp
 from tasks.recording.writer import Format, RecordingWriter
 
 START_NS = 1_700_000_000_000_000_000
@@ -75,7 +75,7 @@ class Case:
         return tuple(p.kind for p in self.truth)
 
 
-def _stamps_ns(t: Array) -> Array:
+def _stamps_ns(t: Array) -> IntArray:
     return START_NS + np.round(np.asarray(t, dtype=np.float64) * 1e9).astype(np.int64)
 
 
@@ -92,15 +92,15 @@ def write_case(case: Case, path: Path, fmt: Format = "mcap") -> None:
             writer.add_poses("/wrist", _stamps_ns(t), xyz, quat)
 
 
-def _valid_brackets(t: Array, valid: Array, t_new: Array) -> tuple[Array, Array, Array]:
+def _valid_brackets(t: Array, valid: BoolArray, t_new: Array) -> tuple[IntArray, IntArray, BoolArray]:
     """For each new time: the indices of the valid samples before and after it and whether it may be interpolated
     (both exist, no invalid sample between them, and they are not further apart than a gap)."""
-    idx = np.flatnonzero(valid)
+    idx: IntArray = np.flatnonzero(valid).astype(np.int64)
     tv = t[idx]
     hi = np.searchsorted(tv, t_new, side="left")
     exact = (hi < len(tv)) & (tv[np.minimum(hi, len(tv) - 1)] == t_new)
     lo = np.where(exact, hi, hi - 1)
-    ok = (lo >= 0) & (hi < len(tv))
+    ok: BoolArray = (lo >= 0) & (hi < len(tv))
     lo_c = np.clip(lo, 0, len(tv) - 1)
     hi_c = np.clip(hi, 0, len(tv) - 1)
     i_lo, i_hi = idx[lo_c], idx[hi_c]
@@ -113,11 +113,12 @@ def _valid_brackets(t: Array, valid: Array, t_new: Array) -> tuple[Array, Array,
 
 def _new_times(t: Array, hz: float) -> Array:
     n = int(np.floor((t[-1] - t[0]) * hz + 1e-9)) + 1
-    return t[0] + np.arange(n) / hz
+    out: Array = t[0] + np.arange(n) / hz
+    return out
 
 
 def _resample_points(t: Array, xyz: Array, hz: float) -> Track:
-    valid = np.isfinite(xyz).all(axis=1)
+    valid: BoolArray = np.asarray(np.isfinite(xyz).all(axis=1))
     t_new = _new_times(t, hz)
     if valid.sum() < 2:
         return t_new, np.full((len(t_new), 3), np.nan)
@@ -131,7 +132,7 @@ def _resample_points(t: Array, xyz: Array, hz: float) -> Track:
 
 def _resample_pose(track: PoseTrack, hz: float) -> PoseTrack:
     t, xyz, quat = track
-    valid = np.isfinite(xyz).all(axis=1) & np.isfinite(quat).all(axis=1)
+    valid: BoolArray = np.asarray(np.isfinite(xyz).all(axis=1) & np.isfinite(quat).all(axis=1))
     t_new, pos = _resample_points(t, np.where(valid[:, None], xyz, np.nan), hz)
     if valid.sum() < 2:
         return t_new, pos, np.full((len(t_new), 4), np.nan)

@@ -83,7 +83,8 @@ def chain_transform(joints: tuple[Joint, ...], q: Array, first: int = 0) -> Tran
 def apply(transform: Transform, x: Array) -> Array:
     """Positions (n, 3) of the link point ``x`` (3,) under transforms (n)."""
     rot, trans = transform
-    return np.einsum("nij,j->ni", rot, x) + trans
+    out: Array = np.einsum("nij,j->ni", rot, x) + trans
+    return out
 
 
 def truth_of(mech: Mechanism, moves: list[Move], handle_name: str) -> tuple[TruthPrimitive, ...]:

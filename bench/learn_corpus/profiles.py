@@ -35,7 +35,8 @@ def _from_speed(speed: Array) -> Profile:
     cum /= cum[-1]
 
     def profile(u: Array) -> Array:
-        return np.interp(np.clip(u, 0.0, 1.0), grid, cum)
+        out: Array = np.interp(np.clip(u, 0.0, 1.0), grid, cum)
+        return out
 
     return profile
 

@@ -122,7 +122,8 @@ def running_median(x: Array, width: int) -> Array:
     half = width // 2
     padded = np.concatenate([np.full(half, x[0]), x, np.full(half, x[-1])])
     windows = np.lib.stride_tricks.sliding_window_view(padded, width)
-    return np.median(windows, axis=1)
+    out: Array = np.median(windows, axis=1)
+    return out
 
 
 def turning_points(angle: Array, hysteresis: float) -> list[int]:

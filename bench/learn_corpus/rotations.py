@@ -9,12 +9,15 @@ import numpy as np
 import numpy.typing as npt
 
 Array = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+BoolArray = npt.NDArray[np.bool_]
 
 
 def unit(v: Array) -> Array:
     """``v`` scaled to unit length along its last axis."""
     v = np.asarray(v, dtype=np.float64)
-    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+    out: Array = v / np.linalg.norm(v, axis=-1, keepdims=True)
+    return out
 
 
 def matrix_from_axis_angle(axis: Array, angle_rad: Array | float) -> Array:
@@ -24,7 +27,8 @@ def matrix_from_axis_angle(axis: Array, angle_rad: Array | float) -> Array:
     kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
     s = np.sin(theta)[..., None, None]
     c = np.cos(theta)[..., None, None]
-    return np.eye(3) + s * kx + (1.0 - c) * (kx @ kx)
+    out: Array = np.eye(3) + s * kx + (1.0 - c) * (kx @ kx)
+    return out
 
 
 def matrix_from_rotvec(rotvec: Array) -> Array:
@@ -37,7 +41,8 @@ def matrix_from_rotvec(rotvec: Array) -> Array:
     kx[:, 1, 0], kx[:, 2, 0], kx[:, 2, 1] = k[:, 2], -k[:, 1], k[:, 0]
     s = np.sin(theta)[:, None, None]
     c = np.cos(theta)[:, None, None]
-    return np.eye(3) + s * kx + (1.0 - c) * (kx @ kx)
+    out: Array = np.eye(3) + s * kx + (1.0 - c) * (kx @ kx)
+    return out
 
 
 def matrix_from_quat(quat_xyzw: Array) -> Array:

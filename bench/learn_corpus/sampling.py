@@ -39,7 +39,8 @@ def noise(
     e1 = unit(np.cross(d, [0.0, 0.0, 1.0] if abs(d[2]) < 0.9 else [1.0, 0.0, 0.0]))
     e2 = np.cross(d, e1)
     frame = np.stack([e1, e2, d], axis=1)
-    return (white * np.array([sigma_lat, sigma_lat, sigma_depth])) @ frame.T
+    out: Array = (white * np.array([sigma_lat, sigma_lat, sigma_depth])) @ frame.T
+    return out
 
 
 def add_outliers(rng: np.random.Generator, xyz: Array, noise_m: float) -> Array:

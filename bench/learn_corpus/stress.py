@@ -206,6 +206,7 @@ def stress_case(seed: int, index: int, *, clean: bool = False) -> Case:
         names = marker_names(rng, len(obj) + len(static) + len(hand_offsets))
     roles = ["object"] * len(obj) + ["static"] * len(static) + ["hand"] * len(hand_offsets)
     local = obj + static + hand_offsets
+    role_of = dict(zip(names, roles, strict=True))
     pose = rng.uniform() < 0.25
     pose_only = pose and rng.uniform() < 0.35
     body = str(rng.choice(RIGID_BODY_NAMES)).format(j=int(rng.integers(1, 5)))
@@ -306,10 +307,20 @@ def stress_case(seed: int, index: int, *, clean: bool = False) -> Case:
         tags=tuple(tags),
         check_axis=True,
         radius_tol_m=None,
-        roles={**{n: r for n, r in zip(names, roles, strict=True) if n in markers}, **dict.fromkeys(poses, "body")},
+        roles={**{n: role_of[n] for n in markers}, **dict.fromkeys(poses, "body")},
     )
 
 
 def stress_cases(seed: int, n: int) -> list[Case]:
     """The first ``n`` cases of the stress corpus drawn with ``seed``."""
     return [stress_case(seed, i) for i in range(n)]
+
+
+def dev_cases(n_per_seed: int) -> list[Case]:
+    """The development part: ``n_per_seed`` cases of each of ``DEV_SEEDS``."""
+    return [case for seed in DEV_SEEDS for case in stress_cases(seed, n_per_seed)]
+
+
+def heldout_cases(n_per_seed: int) -> list[Case]:
+    """The held-out part: ``n_per_seed`` cases of each of ``HELDOUT_SEEDS``."""
+    return [case for seed in HELDOUT_SEEDS for case in stress_cases(seed, n_per_seed)]
