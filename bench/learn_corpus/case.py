@@ -2,7 +2,8 @@
 
 Times are seconds from the start of the recording (``t = 0`` is the first written sample), positions metres in
 one world frame, quaternions ``[x, y, z, w]``. ``write_case`` turns a case into a recording with the real
-``RecordingWriter``; ``resample`` gives the same motion at another rate.
+``RecordingWriter``; ``resample`` gives the same motion at another rate. Cases and truths hold arrays, so they
+compare by identity.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ Track = tuple[Array, Array]
 PoseTrack = tuple[Array, Array, Array]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class TruthPrimitive:
     """One demonstrated primitive.
 
@@ -46,7 +47,7 @@ class TruthPrimitive:
     radius_marker: str | None = None
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Case:
     """One demonstration and its truth.
 
