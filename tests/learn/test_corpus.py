@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from bench.learn_corpus.case import Case, resample, write_case
-from bench.learn_corpus.real import fit_circle_3d, real_cases, turning_points
+from bench.learn_corpus.real import STURM_RADIUS_M, fit_circle_3d, real_cases, turning_points
 from bench.learn_corpus.rotations import matrix_from_axis_angle
 from bench.learn_corpus.score import score
 from bench.learn_corpus.stress import DEV_SEEDS, stress_case
@@ -117,6 +117,10 @@ def test_real_truths() -> None:
     drawer = cases["articulation_models/drawer"]
     assert drawer.kinds == ("translation", "translation") and 0.24 < drawer.truth[0].extent < 0.3
     assert cases["champ/traj2_obj2_rel_obj1"].truth[0].extent == pytest.approx(np.radians(150), abs=0.1)
+    for name, case in cases.items():
+        mechanism = name.split("/")[1] if name.startswith("mechanisms") else ""
+        if mechanism in STURM_RADIUS_M:
+            assert case.truth[0].radius_m == pytest.approx(STURM_RADIUS_M[mechanism], abs=0.025)
     wash = [c for n, c in cases.items() if n.startswith("second_set")]
     assert len(wash) == 7 and all(0.63 < (c.truth[0].radius_m or 0) < 0.7 for c in wash)
 
