@@ -14,6 +14,7 @@ from __future__ import annotations
 import contextlib
 import errno
 import os
+import re
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
@@ -44,9 +45,12 @@ def checkpoint(step: str, path: Path) -> None:
 
 def os_error_text(err: OSError) -> str:
     """The cause of an ``OSError`` in a few words (``No space left on device``), without repeating the path."""
-    if err.strerror:
-        return str(err.strerror).split(". Detail:")[0].strip()
-    return type(err).__name__
+    if not err.strerror:
+        return type(err).__name__
+    text = str(err.strerror)
+    if "Detail: " in text:  # pyarrow: "Error writing bytes to file. Detail: [errno 28] No space left on device"
+        text = re.sub(r"^\[errno \d+\] ", "", text.split("Detail: ", 1)[1])
+    return text.strip()
 
 
 @contextlib.contextmanager

@@ -208,3 +208,11 @@ def test_a_read_only_store_is_one_error_naming_the_path(
         store.put_descriptor(_descriptor(2.0))
     assert [e.version for e in store.versions("open-door")] == [1]
     assert _leftovers(store) == []
+
+
+def test_the_cause_of_a_pyarrow_write_error_is_its_detail() -> None:
+    from tasks.atomic import os_error_text
+
+    err = OSError(28, "Error writing bytes to file. Detail: [errno 28] No space left on device")
+    assert os_error_text(err) == "No space left on device"
+    assert os_error_text(OSError("no strerror")) == "OSError"
