@@ -24,7 +24,6 @@ import contextlib
 import datetime as dt
 import fcntl
 import hashlib
-import json
 import os
 import re
 import shutil
@@ -38,7 +37,8 @@ from typing import Any
 from schemas.descriptor import Descriptor
 from schemas.limits import MAX_DESCRIPTOR_BYTES
 from tasks.atomic import checkpoint, fsync_dir, write_bytes_atomic, write_errors
-from tasks.errors import DescriptorError, PbdError, StoreError
+from tasks.errors import DescriptorError, StoreError
+from tasks.store_index import VersionEntry, adoptable, lists, read_index, write_index
 
 __all__ = [
     "DEFAULT_STORE",
@@ -75,29 +75,6 @@ def resolve_store_root(arg: str | os.PathLike[str] | None) -> Path:
         return Path(arg)
     env = os.environ.get("PBD_STORE")
     return Path(env) if env else DEFAULT_STORE
-
-
-@dataclass(frozen=True)
-class VersionEntry:
-    """One row of ``descriptors/<name>/index.json``."""
-
-    version: int
-    id: str
-    created: str
-    recording: str | None
-    parameters: dict[str, Any]
-    code_version: str
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready row."""
-        return {
-            "version": self.version,
-            "id": self.id,
-            "created": self.created,
-            "recording": self.recording,
-            "parameters": self.parameters,
-            "code_version": self.code_version,
-        }
 
 
 @dataclass(frozen=True)
@@ -287,7 +264,7 @@ class Store:
         path = self.descriptor_dir(name) / "index.json"
         if not path.is_file():
             return []
-        return _read_index(path)
+        return read_index(path)
 
     def names(self) -> list[str]:
         """Every descriptor name in the store, sorted."""
@@ -309,7 +286,7 @@ class Store:
             tmp.unlink(missing_ok=True)
         index = folder / "index.json"
         try:
-            entries = _read_index(index) if index.is_file() else []
+            entries = read_index(index) if index.is_file() else []
         except StoreError:
             self._quarantine(index, "corrupt")
             entries = []
@@ -320,13 +297,13 @@ class Store:
         adopted = list(entries)
         for number in orphans:
             path = folder / f"v{number}.json"
-            entry = _adoptable(path, name, number, adopted)
+            entry = adoptable(path, name, number, adopted)
             if entry is None:
                 self._quarantine(path, "orphan")
             else:
                 adopted.append(entry)
         if len(adopted) != len(entries) or (adopted and not index.is_file()):
-            _write_index(index, adopted)
+            write_index(index, adopted)
         return adopted
 
     def put_descriptor(self, desc: Descriptor) -> PutResult:
@@ -357,9 +334,9 @@ class Store:
             )
             try:
                 write_bytes_atomic(path, text.encode(), step="descriptor.version")
-                _write_index(folder / "index.json", [*entries, entry])
+                write_index(folder / "index.json", [*entries, entry])
             except BaseException:  # nothing left behind: the version file is ours while the lock is held
-                if not _lists(folder / "index.json", version):
+                if not lists(folder / "index.json", version):
                     path.unlink(missing_ok=True)
                 raise
         return PutResult(desc.name, version, desc.id, True, path)
@@ -423,46 +400,3 @@ def model_sha256(points_xyz: Any) -> str:
 
     pts = np.ascontiguousarray(np.asarray(points_xyz, dtype=np.float32).reshape(-1, 3))
     return hashlib.sha256(pts.tobytes()).hexdigest()
-
-
-def _read_index(path: Path) -> list[VersionEntry]:
-    """The rows of an ``index.json``; ``StoreError`` when it is not a list of version rows."""
-    try:
-        rows = json.loads(path.read_bytes())
-        entries = [VersionEntry(**row) for row in rows]
-    except (OSError, ValueError, TypeError, RecursionError) as err:
-        msg = f"corrupt index ({type(err).__name__}); the next write under this name rebuilds it"
-        raise StoreError(path, msg) from err
-    if [e.version for e in entries] != list(range(1, len(entries) + 1)):
-        msg = "corrupt index (versions not 1..N in order); the next write under this name rebuilds it"
-        raise StoreError(path, msg)
-    return entries
-
-
-def _lists(index: Path, version: int) -> bool:
-    """True when ``index`` is readable and lists ``version``."""
-    try:
-        return any(e.version == version for e in _read_index(index))
-    except StoreError:
-        return False
-
-
-def _write_index(path: Path, entries: list[VersionEntry]) -> None:
-    """Replace ``index.json`` atomically (the only file the store rewrites)."""
-    text = json.dumps([e.to_dict() for e in entries], indent=2) + "\n"
-    write_bytes_atomic(path, text.encode(), overwrite=True, step="descriptor.index")
-
-
-def _adoptable(path: Path, name: str, number: int, entries: list[VersionEntry]) -> VersionEntry | None:
-    """The index row for a version file the index does not list, or None when it cannot be adopted: not the
-    next number, unreadable, invalid, of another name, or the same content as the version before it."""
-    if number != (entries[-1].version + 1 if entries else 1):
-        return None
-    try:
-        desc = Descriptor.from_bytes(path.read_bytes()[: MAX_DESCRIPTOR_BYTES + 1], source=str(path))
-        created = dt.datetime.fromtimestamp(path.stat().st_mtime, dt.UTC).isoformat(timespec="seconds")
-    except (OSError, PbdError):
-        return None
-    if desc.name != name or (entries and entries[-1].id == desc.id):
-        return None
-    return VersionEntry(number, desc.id, created, desc.recording_id, desc.parameters, desc.code_version)
