@@ -86,8 +86,12 @@ def _usable_samples(pts: Points) -> tuple[npt.NDArray[np.bool_], str]:
     with np.errstate(invalid="ignore"):
         far = ~nan & ~inf & (np.abs(pts) > MAX_COORDINATE_M).any(axis=1)
     parts = [
-        f"{int(count)} {what} samples"
-        for count, what in ((nan.sum(), "NaN"), (inf.sum(), "infinite"), (far.sum(), f"beyond {MAX_COORDINATE_M:g} m"))
+        f"{int(count)} {what}"
+        for count, what in (
+            (nan.sum(), "NaN samples"),
+            (inf.sum(), "infinite samples"),
+            (far.sum(), f"samples beyond {MAX_COORDINATE_M:g} m"),
+        )
         if count
     ]
     keep: npt.NDArray[np.bool_] = np.logical_not(nan | inf | far)

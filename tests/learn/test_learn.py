@@ -156,7 +156,7 @@ def test_infinite_and_absurd_samples_are_dropped_and_backward_stamps_warned() ->
     markers["/mocap/drawer_0"] = dataclasses.replace(track, points=pts, stamps_ns=stamps)
     result = learn_chain(dataclasses.replace(rec, markers=markers), LearnParams(), RNG(0))
     assert [p.kind for p in result.chain] == ["translation"]
-    assert "marker /mocap/drawer_0: 3 infinite samples, 2 beyond 1000 m samples dropped" in result.warnings
+    assert "marker /mocap/drawer_0: 3 infinite samples, 2 samples beyond 1000 m dropped" in result.warnings
     assert "marker /mocap/drawer_0: 1 time stamps go backwards; samples sorted by time" in result.warnings
     huge = np.full((50, 3), 1e300)
     with pytest.raises(FitError, match="marker /m/a: every sample is NaN, infinite or beyond 1000 m"):
