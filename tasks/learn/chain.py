@@ -26,7 +26,7 @@ from tasks.fit.translation import TranslationFit, fit_translation
 from tasks.learn.params import LearnParams
 from tasks.learn.prepare import MIN_SAMPLES, PreparedRecording, is_orientation_marker
 from tasks.segment.changepoint import MIN_MODEL_SAMPLES
-from tasks.segment.tracks import Track, span_indices
+from tasks.segment.tracks import Track, anisotropy, span_indices
 
 HAND_ONLY = "only hand markers move"
 """Note of a reach or release segment (normal, dropped without a warning)."""
@@ -60,6 +60,7 @@ def marker_kind(track: Track, t0: float, t1: float, undefined: float) -> Kind | 
     if j - i < MIN_MODEL_SAMPLES:
         return None
     res = span_residuals(track.moments, np.array([i]), np.array([j]))
+    precision, excess = anisotropy(track)
     costs = model_costs(
         res.n,
         res.still,
@@ -68,6 +69,7 @@ def marker_kind(track: Track, t0: float, t1: float, undefined: float) -> Kind | 
         sigma_still=track.sigma_hf_m,
         sigma_model=track.sigma_m,
         undefined=undefined,
+        still_noise=(res.scatter, precision[None], np.array([excess])),
     )
     return KINDS[int(np.argmin(costs[0]))]
 
