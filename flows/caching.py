@@ -1,4 +1,4 @@
-"""Cache keys, result storage and retry rules shared by the Prefect task wrappers in ``tasks/<stage>/task.py``.
+"""Cache keys, result storage and retry rules shared by the Prefect task wrappers in ``flows/stages/<stage>.py``.
 
 A stage's cache key is built from references only: the content ids of its inputs (recording id, descriptor
 id), its parameters (canonical JSON) and an explicit code version over the stage's modules

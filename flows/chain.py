@@ -20,11 +20,11 @@ from prefect.futures import PrefectFuture, as_completed
 
 from flows.caching import on_store
 from flows.progress import notify
-from tasks.diff.task import diff_task
-from tasks.ingest.task import ingest_task
-from tasks.learn.task import learn_task, store_descriptor_task
+from flows.stages.diff import diff_task
+from flows.stages.ingest import ingest_task
+from flows.stages.learn import learn_task, store_descriptor_task
+from flows.stages.simulate import simulate_task
 from tasks.report.refs import DescriptorRef, EntryResult
-from tasks.simulate.task import simulate_task
 
 
 @dataclass(frozen=True)

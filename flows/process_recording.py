@@ -9,8 +9,8 @@ from prefect import flow
 from prefect.task_runners import ThreadPoolTaskRunner
 
 from flows.chain import ChainSettings, run_chains
+from flows.stages.report import report_task
 from flows.summary import RunSummary, summarise
-from tasks.report.task import report_task
 from tasks.store import resolve_store_root
 
 

@@ -11,8 +11,8 @@ from prefect.task_runners import ThreadPoolTaskRunner
 
 from flows.chain import ChainSettings, archive_names, run_chains
 from flows.discover import find_recordings
+from flows.stages.report import report_task
 from flows.summary import RunSummary, summarise
-from tasks.report.task import report_task
 from tasks.store import resolve_store_root
 
 DEFAULT_WORKERS = 2

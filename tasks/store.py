@@ -29,7 +29,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+
 from schemas.descriptor import Descriptor
+from schemas.tables import OBJECT_MODEL_SCHEMA
 from tasks.errors import DescriptorError, StoreError
 
 DEFAULT_STORE = Path("data/store")
@@ -171,11 +176,6 @@ class Store:
     # -- object models --------------------------------------------------------------------------------
     def put_model(self, points_xyz: Any) -> tuple[str, Path]:
         """Store an (n, 3) model point cloud (metres) as Parquet by its content sha256; returns (sha, path)."""
-        import numpy as np  # noqa: PLC0415
-        import pyarrow as pa  # noqa: PLC0415
-        import pyarrow.parquet as pq  # noqa: PLC0415
-
-        from schemas.tables import OBJECT_MODEL_SCHEMA  # noqa: PLC0415
 
         pts = np.ascontiguousarray(np.asarray(points_xyz, dtype=np.float32).reshape(-1, 3))
         sha = hashlib.sha256(pts.tobytes()).hexdigest()
@@ -196,8 +196,6 @@ class Store:
 
     def load_model(self, sha256: str) -> Any:
         """The (n, 3) float64 model point cloud stored under ``sha256``."""
-        import numpy as np  # noqa: PLC0415
-        import pyarrow.parquet as pq  # noqa: PLC0415
 
         path = self.models_dir / f"{sha256}.parquet"
         if not path.is_file():

@@ -15,7 +15,10 @@ import numpy as np
 
 from schemas.descriptor import Descriptor, Grasp, ObjectRef, Primitive
 from tasks.arrays import Points
+from tasks.code_version import code_version
 from tasks.errors import FitError, GraspError
+from tasks.grasp import worker_pool
+from tasks.grasp.api import plan_grasp_for_recording
 from tasks.learn.boundaries import refine_boundaries
 from tasks.learn.chain import (
     HAND_ONLY,
@@ -158,7 +161,7 @@ def learn_descriptor(
     Warnings (dropped markers, undefined segments, no grasp) are kept in ``provenance.warnings``.
     """
     if rec.object_model is not None and len(rec.object_model):
-        _start_grasp_workers()
+        worker_pool.start()  # the planner's processes import pybullet while the chain is learnt
     result = learn_chain(rec, params, rng)
     warnings = list(result.warnings)
     obj_name = str(rec.meta.get("object") or (name or default_name(rec)))
@@ -169,7 +172,6 @@ def learn_descriptor(
     else:
         obj = ObjectRef(obj_name)
     grasp = _grasp(rec, result.chain, rng, warnings)
-    from tasks.code_version import code_version  # noqa: PLC0415
 
     return Descriptor(
         name=_slug(name) if name else default_name(rec),
@@ -185,22 +187,9 @@ def learn_descriptor(
     )
 
 
-def _start_grasp_workers() -> None:
-    """Start the grasp planner's worker processes while the chain is learnt (``tasks.grasp.worker_pool.start``)."""
-    try:
-        from tasks.grasp.worker_pool import start  # noqa: PLC0415
-    except ImportError:
-        return
-    start()
-
-
 def _grasp(
     rec: RecordingData, chain: tuple[Primitive, ...], rng: np.random.Generator, warnings: list[str]
 ) -> Grasp | None:
-    try:
-        from tasks.grasp.api import plan_grasp_for_recording  # noqa: PLC0415
-    except ImportError:
-        return None
     t_seed = chain[0].t_start if chain else None
     try:
         return plan_grasp_for_recording(rec.object_model, rec.wrist, t_seed, rec.start_ns, rng)

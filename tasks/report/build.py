@@ -6,19 +6,24 @@ The folder is staged under ``<store>/tmp`` and renamed into place, so a report i
 from __future__ import annotations
 
 import html
-import importlib
 import json
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import matplotlib.pyplot as plt
 import numpy as np
 
 from schemas.descriptor import Descriptor
 from tasks.errors import StoreError
+from tasks.hand import barrett
+from tasks.recording.load import load_recording
+from tasks.report import plots
 from tasks.report.markdown import summary_markdown
+from tasks.report.plots import quat_to_matrix
 from tasks.report.refs import EntryResult
+from tasks.report.scene_mcap import axes_mcap_bytes, scene_update
 from tasks.store import Store, write_bytes_atomic
 
 MAX_MARKERS_DRAWN = 16
@@ -45,7 +50,6 @@ class ReportPaths:
 
 def _save(fig: Any, path: Path) -> str:
     """Save a matplotlib figure as PNG and close it; returns the file name for the HTML."""
-    import matplotlib.pyplot as plt  # noqa: PLC0415
 
     fig.savefig(path, dpi=90)
     plt.close(fig)
@@ -53,26 +57,12 @@ def _save(fig: Any, path: Path) -> str:
 
 
 def _finger_dofs(a1: float, a2: float) -> list[float] | None:
-    """Barrett [spread, f1, f2, f3] in rad from the grasp stage, when it provides the mapping."""
-    try:
-        barrett = importlib.import_module("tasks.grasp.barrett")
-    except ImportError:
-        return None
-    fn = getattr(barrett, "dofs_from_eigengrasps", None)
-    return None if fn is None else [float(v) for v in np.asarray(fn(a1, a2)).ravel()]
+    """Barrett [spread, f1, f2, f3] in rad of the eigengrasp amplitudes ``a1``, ``a2``."""
+    return [float(v) for v in np.asarray(barrett.dofs_from_eigengrasps(a1, a2)).ravel()]
 
 
 def _hand_lines(grasp: Any) -> list[Any] | None:
     """The Barrett hand's three fingers as world polylines (knuckle → joints → tip, metres) at the grasp."""
-    try:
-        barrett = importlib.import_module("tasks.grasp.barrett")
-    except ImportError:
-        return None
-    needed = ("dofs_from_eigengrasps", "joint_positions", "link_transforms", "DISTAL_LENGTH")
-    if not all(hasattr(barrett, n) for n in needed):
-        return None
-    from tasks.report.plots import quat_to_matrix  # noqa: PLC0415
-
     tfs = barrett.link_transforms(barrett.joint_positions(barrett.dofs_from_eigengrasps(*grasp.eigengrasps)))
     rot = quat_to_matrix(grasp.wrist_orientation)
     pos = np.asarray(grasp.wrist_position)
@@ -87,9 +77,6 @@ def _hand_lines(grasp: Any) -> list[Any] | None:
 
 def _entry_section(store: Store, entry: EntryResult, folder: Path, mcaps: list[Path]) -> str:
     """Plots and tables of one recording; writes its PNGs and axes MCAP into ``folder``."""
-    from tasks.recording.load import load_recording  # noqa: PLC0415
-    from tasks.report import plots  # noqa: PLC0415
-    from tasks.report.scene_mcap import axes_mcap_bytes, scene_update  # noqa: PLC0415
 
     title = html.escape(Path(entry.source).name)
     if entry.descriptor is None:
@@ -153,8 +140,6 @@ def _entry_section(store: Store, entry: EntryResult, folder: Path, mcaps: list[P
 
 
 def _simulation_html(entry: EntryResult, folder: Path, stem: str) -> str:
-    from tasks.report import plots  # noqa: PLC0415
-
     sim = entry.simulation
     if sim is None:
         return "<h3>simulation</h3><p>not simulated</p>"
@@ -181,8 +166,6 @@ def _simulation_html(entry: EntryResult, folder: Path, stem: str) -> str:
 
 
 def _diff_html(entry: EntryResult, folder: Path, stem: str) -> str:
-    from tasks.report import plots  # noqa: PLC0415
-
     if entry.descriptor is None or entry.status != "changed":
         prev = "first version" if entry.status == "new" else "same content as the previous version"
         return f"<h3>against the previous version</h3><p>{prev}</p>"

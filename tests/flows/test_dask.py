@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 from distributed import LocalCluster
 
-from tasks.cli import main
+from flows.cli import main
 from tasks.store import Store
 from tests.flows.recordings import write_door_recording
 

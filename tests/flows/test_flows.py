@@ -14,9 +14,9 @@ import pytest
 from flows.caching import results_dir
 from flows.process_recording import process_recording
 from flows.reprocess_archive import reprocess_archive
-from tasks.ingest import task as ingest_module
-from tasks.learn import task as learn_module
-from tasks.simulate import task as simulate_module
+from flows.stages import ingest as ingest_module
+from flows.stages import learn as learn_module
+from flows.stages import simulate as simulate_module
 from tasks.store import Store
 from tasks.synth.record import synthesize
 from tests.flows.recordings import write_door_recording
@@ -112,7 +112,7 @@ def test_cache_survives_a_new_process_and_prefect_home(prefect_harness: None, ar
     before = {p.name: p.stat().st_mtime_ns for p in results_dir(store).iterdir()}
     env = {k: v for k, v in os.environ.items() if not k.startswith("PREFECT_")}
     env["PREFECT_HOME"] = str(tmp_path / "another-prefect-home")
-    cmd = [sys.executable, "-m", "tasks.cli", "archive", str(archive), "--store", str(store), "--json", "--no-report"]
+    cmd = [sys.executable, "-m", "flows.cli", "archive", str(archive), "--store", str(store), "--json", "--no-report"]
     out = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=240, check=False)
     assert out.returncode == 0, out.stderr[-2000:]
     summary = json.loads(out.stdout)

@@ -1,20 +1,20 @@
 """The ``pbd`` command line (``../shared/DESCRIPTOR.md``, "Command line").
 
-Each command lives in ``tasks/commands/<name>.py`` with ``add_arguments(parser)`` and ``run(args) -> int``.
-Those modules import nothing heavy at the top, so start-up stays light: ``pbd ingest`` never imports
-Prefect, open3d or pybullet. A ``PbdError`` becomes one line on stderr and exit 2.
+Every command's arguments are in ``flows.cli_args`` (argparse only); its ``run(args) -> int`` is in
+``flows.commands.<name>``, imported by name once the arguments parse, so start-up stays light: ``pbd ingest``
+never imports Prefect, open3d or pybullet. A ``PbdError`` becomes one line on stderr and exit 2.
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
-import os
 import sys
 from collections.abc import Sequence
-from types import ModuleType
 
+from flows.cli_args import ARGUMENTS
 from tasks.errors import PbdError
+from tasks.quiet_import import quiet_import
 
 COMMANDS: dict[str, str] = {
     "demo": "make the sample recordings, run the whole pipeline flow over them, print where results are",
@@ -28,30 +28,8 @@ COMMANDS: dict[str, str] = {
     "serve": "serve the Prefect deployments with their schedules",
 }
 
-
 PYBULLET_COMMANDS = frozenset({"demo", "synth", "learn", "transfer", "simulate", "archive", "serve"})
 """Commands that load pybullet, whose import prints its build time on stderr (C level); they import it quietly."""
-
-
-def quiet_pybullet_import() -> None:
-    """Import pybullet with the process's stderr (file descriptor 2) sent to /dev/null meanwhile, so its build-time
-    banner does not join a command's one-line error output."""
-    if "pybullet" in sys.modules:
-        return
-    sys.stderr.flush()
-    saved = os.dup(2)
-    null = os.open(os.devnull, os.O_WRONLY)
-    try:
-        os.dup2(null, 2)
-        importlib.import_module("pybullet")
-    finally:
-        os.close(null)
-        os.dup2(saved, 2)
-        os.close(saved)
-
-
-def _module(name: str) -> ModuleType:
-    return importlib.import_module(f"tasks.commands.{name}")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -61,7 +39,7 @@ def build_parser() -> argparse.ArgumentParser:
     for name, help_text in COMMANDS.items():
         p = sub.add_parser(name, help=help_text, description=help_text)
         p.add_argument("--store", metavar="DIR", default=None, help="artefact store (default $PBD_STORE or data/store)")
-        _module(name).add_arguments(p)
+        ARGUMENTS[name](p)
     return parser
 
 
@@ -70,9 +48,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.command in PYBULLET_COMMANDS:
-        quiet_pybullet_import()
+        quiet_import("pybullet")
     try:
-        code: int = _module(args.command).run(args)
+        command = importlib.import_module(f"flows.commands.{args.command}")
+        code: int = command.run(args)
     except PbdError as err:
         print(f"pbd {args.command}: {err}", file=sys.stderr)
         return 2

@@ -12,24 +12,19 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from flows.cli_args import add_param_argument, parse_params
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
 
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of ``pbd archive``."""
-    parser.add_argument("dir", type=Path, help="folder of recordings (*.mcap, *.bag, rosbag2 folders)")
-    parser.add_argument("--address", metavar="tcp://HOST:PORT", help="run the tasks on this Dask scheduler")
-    parser.add_argument("--workers", type=int, default=2, metavar="N", help="recordings in flight at once")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the grasp planner's random generator")
-    add_param_argument(parser)
-    parser.add_argument("--no-report", action="store_true", help="skip the HTML report")
-    parser.add_argument("--json", action="store_true", help="print the run summary as JSON on stdout")
+from flows.cli_args import parse_params
+from flows.discover import find_recordings
+from flows.progress import listening
+from flows.reprocess_archive import reprocess_archive
+from flows.runtime import cli_settings
+from tasks.store import resolve_store_root
 
 
 def _print_summary(summary: dict[str, Any]) -> None:
-    from rich.console import Console  # noqa: PLC0415
-    from rich.table import Table  # noqa: PLC0415
-
     console = Console()
     table = Table(title="reprocess-archive")
     for col in ("recording", "status", "descriptor", "id", "simulation"):
@@ -58,13 +53,6 @@ def _print_summary(summary: dict[str, Any]) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run ``reprocess-archive`` over ``args.dir``; exit 0 once the run completed (recordings that failed are listed
     in the summary with their error), 2 for bad arguments (DESCRIPTOR.md)."""
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn  # noqa: PLC0415
-
-    from flows.discover import find_recordings  # noqa: PLC0415
-    from flows.progress import listening  # noqa: PLC0415
-    from flows.reprocess_archive import reprocess_archive  # noqa: PLC0415
-    from flows.runtime import cli_settings  # noqa: PLC0415
-    from tasks.store import resolve_store_root  # noqa: PLC0415
 
     params = parse_params(args.param)
     find_recordings(args.dir)  # fail fast, before Prefect starts, on a missing folder

@@ -6,18 +6,12 @@ import argparse
 import json
 import sys
 
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of ``pbd diff``."""
-    parser.add_argument("a", metavar="A", help="descriptor: file, content id (8+ hex) or name@vN / name@latest")
-    parser.add_argument("b", metavar="B", help="descriptor to compare with A")
-    parser.add_argument("--json", action="store_true", help="print the diff as JSON on stdout")
+from tasks.diff.core import diff_descriptors, format_diff
+from tasks.store import Store, resolve_store_root
 
 
 def run(args: argparse.Namespace) -> int:
     """Resolve both descriptors, compare, print; 0 when the same, 1 when different."""
-    from tasks.diff.core import diff_descriptors, format_diff  # noqa: PLC0415
-    from tasks.store import Store, resolve_store_root  # noqa: PLC0415
 
     store = Store(resolve_store_root(args.store))
     a = store.load(args.a)

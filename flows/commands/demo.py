@@ -11,25 +11,19 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
 
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of ``pbd demo``."""
-    parser.add_argument("--samples", type=Path, default=Path("data/recordings"), help="folder of the sample recordings")
-    parser.add_argument("--workers", type=int, default=2, metavar="N", help="recordings in flight at once")
+from flows.demo import demo
+from flows.progress import listening
+from flows.runtime import cli_settings
+from tasks.store import resolve_store_root
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the demo flow; 0 when every sample recording was processed."""
-    from rich.console import Console  # noqa: PLC0415
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn  # noqa: PLC0415
-    from rich.table import Table  # noqa: PLC0415
 
-    from flows.demo import demo, sample_recordings_maker  # noqa: PLC0415
-    from flows.progress import listening  # noqa: PLC0415
-    from flows.runtime import cli_settings  # noqa: PLC0415
-    from tasks.store import resolve_store_root  # noqa: PLC0415
-
-    sample_recordings_maker()  # NotBuiltError (exit 2) before Prefect starts while synth is not built
     store = resolve_store_root(args.store).resolve()
     columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
     with cli_settings(), Progress(*columns) as progress:

@@ -11,31 +11,16 @@ import argparse
 import json
 import math
 import sys
-from pathlib import Path
 from typing import TYPE_CHECKING
+
+import numpy as np
+
+from tasks.errors import SimulationError
+from tasks.simulate.api import simulate_descriptor
+from tasks.store import Store, resolve_store_root
 
 if TYPE_CHECKING:
     from tasks.simulate.result import SimulationResult
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of ``pbd simulate``."""
-    parser.add_argument("descriptor", metavar="DESCRIPTOR", help="file path, content id (8+ hex) or name@vN|latest")
-    where = parser.add_mutually_exclusive_group()
-    where.add_argument("--scene", metavar="NAME", help="built-in scene (default: the descriptor's object name)")
-    where.add_argument("--urdf", type=Path, metavar="FILE", help="your own articulated object (fixed base at origin)")
-    parser.add_argument(
-        "--joints", metavar="J1,J2", help="with --urdf: the joints the chain may drive, comma-separated"
-    )
-    parser.add_argument("--seed", type=int, default=None, help="randomised scene instance (as given to pbd synth)")
-    parser.add_argument("--frames", type=Path, metavar="DIR", help="write key frames (PNG) into DIR")
-    parser.add_argument(
-        "--grasp",
-        choices=("constraint", "friction"),
-        default="constraint",
-        help="hold the part by a fixed palm constraint once the fingers close (default) or by friction alone",
-    )
-    parser.add_argument("--json", action="store_true", help="machine-readable result on stdout")
 
 
 def _text(result: SimulationResult) -> str:
@@ -68,11 +53,6 @@ def _text(result: SimulationResult) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Load the descriptor, run the simulation, print the result; exit 0 once executed."""
-    import numpy as np  # noqa: PLC0415
-
-    from tasks.errors import SimulationError  # noqa: PLC0415
-    from tasks.simulate.api import simulate_descriptor  # noqa: PLC0415
-    from tasks.store import Store, resolve_store_root  # noqa: PLC0415
 
     if args.joints and args.urdf is None:
         msg = "--joints needs --urdf"

@@ -8,27 +8,13 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of ``pbd ingest``."""
-    parser.add_argument("recordings", nargs="+", type=Path, metavar="RECORDING", help=".mcap, .bag or rosbag2 folder")
-    parser.add_argument("--topics", type=Path, metavar="MAP", help="topic map YAML overriding role detection")
-    parser.add_argument(
-        "--recover",
-        action="store_true",
-        help="keep the intact messages of a truncated or damaged MCAP, bag or rosbag2 (warns what was lost)",
-    )
-    parser.add_argument(
-        "--object-model", type=Path, metavar="FILE", help="object model .ply/.pcd/.obj/.stl (world frame)"
-    )
+from tasks.ingest.api import ingest_recording
+from tasks.store import Store, resolve_store_root
 
 
 def run(args: argparse.Namespace) -> int:
     """Ingest each recording in turn; the first bad one raises (exit 2, nothing of it left in the store)."""
-    from tasks.ingest.api import ingest_recording  # noqa: PLC0415
-    from tasks.store import Store, resolve_store_root  # noqa: PLC0415
 
     store = Store(resolve_store_root(args.store))
     for source in args.recordings:
