@@ -41,6 +41,11 @@ RETRIES = 2
 RETRY_DELAY_S = 1.0
 """Pause before a retry, seconds."""
 
+STAGE_TIMEOUT_S = 1800.0
+"""Longest wait for one stage of one recording, seconds (``flows.chain.collect``): a grasp plan takes up to ~20 s
+and a long recording's segmentation minutes on two busy cores, so half an hour means a hung run (a deadlocked
+worker, a stuck mount). Prefect's own task timeouts cannot stop a task in a worker thread."""
+
 T = TypeVar("T")
 
 

@@ -27,13 +27,24 @@ def add_param_argument(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def parse_params(items: list[str]) -> dict[str, Any]:
+def add_grasp_param_argument(parser: argparse.ArgumentParser) -> None:
+    """``--grasp-param KEY=VALUE`` (repeatable): a parameter of the grasp planner."""
+    parser.add_argument(
+        "--grasp-param",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="grasp planner parameter for tasks.grasp.planner.PlannerParams (repeatable), e.g. --grasp-param steps=300",
+    )
+
+
+def parse_params(items: list[str], flag: str = "--param") -> dict[str, Any]:
     """``["k=3", "t0=0.1"]`` → ``{"k": 3, "t0": 0.1}``; values that are not JSON stay strings."""
     out: dict[str, Any] = {}
     for item in items:
         key, sep, raw = item.partition("=")
         if not sep or not key:
-            msg = f"--param {item!r}: expected KEY=VALUE"
+            msg = f"{flag} {item!r}: expected KEY=VALUE"
             raise ParameterError(msg)
         try:
             out[key] = json.loads(raw)
@@ -63,6 +74,7 @@ def demo_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of ``pbd demo``."""
     parser.add_argument("--samples", type=Path, default=Path("data/recordings"), help="folder of the sample recordings")
     parser.add_argument("--workers", type=int, default=2, metavar="N", help="recordings in flight at once")
+    parser.add_argument("--json", action="store_true", help="print the run summary as JSON on stdout")
 
 
 def synth_arguments(parser: argparse.ArgumentParser) -> None:
@@ -135,7 +147,9 @@ def simulate_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--joints", metavar="J1,J2", help="with --urdf: the joints the chain may drive, comma-separated"
     )
-    parser.add_argument("--seed", type=int, default=None, help="randomised scene instance (as given to pbd synth)")
+    parser.add_argument(
+        "--seed", type=int, default=None, help="randomised scene instance (default: the one it was learned on)"
+    )
     parser.add_argument("--frames", type=Path, metavar="DIR", help="write key frames (PNG) into DIR")
     parser.add_argument(
         "--grasp",
@@ -160,6 +174,7 @@ def archive_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--workers", type=int, default=2, metavar="N", help="recordings in flight at once")
     parser.add_argument("--seed", type=int, default=0, help="seed of the grasp planner's random generator")
     add_param_argument(parser)
+    add_grasp_param_argument(parser)
     parser.add_argument("--no-report", action="store_true", help="skip the HTML report")
     parser.add_argument("--json", action="store_true", help="print the run summary as JSON on stdout")
 

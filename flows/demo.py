@@ -5,15 +5,17 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 from prefect import flow, task
 from prefect.cache_policies import NO_CACHE
+from prefect.client.schemas.objects import State
 from prefect.task_runners import ThreadPoolTaskRunner
 
 from flows.chain import ChainSettings, run_chains
 from flows.reprocess_archive import DEFAULT_WORKERS, MAX_THREADS
 from flows.stages.report import report_task
-from flows.summary import RunSummary, summarise
+from flows.summary import RunSummary, finish
 from tasks.store import resolve_store_root
 from tasks.synth.samples import ensure_sample_recordings
 
@@ -34,7 +36,7 @@ def demo(
     store: str | None = None,
     samples: str = DEFAULT_SAMPLES,
     workers: int = DEFAULT_WORKERS,
-) -> RunSummary:
+) -> RunSummary | State[Any]:
     """Make the sample recordings under ``samples`` if missing, process each, write the report.
 
     Descriptors are named by the recordings' meta (``<action>-<object>``), one per task.
@@ -43,4 +45,4 @@ def demo(
     sources = [Path(p) for p in sample_recordings_task(str(Path(samples).resolve()))]
     entries = run_chains(sources, ChainSettings(root), workers=workers)
     html = report_task(root, "pbd demo: the four sample tasks", entries)
-    return summarise(entries, html)
+    return finish(entries, html)

@@ -45,7 +45,7 @@ def run(args: argparse.Namespace) -> int:
         pts, _ = load_object_model(args.object_model)
         rec = dataclasses.replace(rec, object_model=np.asarray(pts, dtype=np.float64))
     params = LearnParams(segmenter=args.segmenter, classifier=args.classifier, k=args.k, t0=args.t0)
-    desc = learn_descriptor(rec, params, name=args.name, rng=np.random.default_rng(args.seed))
+    desc = learn_descriptor(rec, params, name=args.name, rng=np.random.default_rng(args.seed), seed=args.seed)
     if rec.object_model is not None and desc.object.model_sha256 is not None:
         sha, _ = store.put_model(rec.object_model)
         if sha != desc.object.model_sha256:  # pragma: no cover - both hash the same float32 bytes

@@ -2,7 +2,9 @@
 
 Executes the descriptor in pybullet (DIRECT, software renderer) and prints, per primitive, the demonstrated
 extent, the joint motion achieved, contact and time, then success. ``--json`` prints one JSON document on stdout
-alone. Exit 0 when executed (success or not is in the output), 2 for bad input. pybullet is imported in ``run``.
+alone. Without ``--scene``, ``--urdf`` or ``--seed`` the descriptor runs in the built-in scene instance it was
+learned on (its provenance's ``scene``, else its recording's meta), else on the nominal scene named like its object.
+Exit 0 when executed (success or not is in the output), 2 for bad input.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ import numpy as np
 
 from tasks.errors import SimulationError
 from tasks.simulate.api import simulate_descriptor
+from tasks.simulate.instance import descriptor_instance, recording_meta
 from tasks.store import Store, resolve_store_root
 
 if TYPE_CHECKING:
@@ -60,9 +63,14 @@ def run(args: argparse.Namespace) -> int:
     store = Store(resolve_store_root(args.store))
     desc = store.load(args.descriptor)
     joints = [j.strip() for j in args.joints.split(",") if j.strip()] if args.joints else None
-    rng = np.random.default_rng(args.seed) if args.seed is not None else None
+    scene, seed = args.scene, args.seed
+    if scene is None and seed is None and args.urdf is None:  # the scene instance the descriptor was learned on
+        rec_id = desc.recording_id
+        meta = recording_meta(store.recording_dir(rec_id)) if rec_id and store.has_recording(rec_id) else None
+        scene, seed = descriptor_instance(desc.extra_provenance, meta)
+    rng = np.random.default_rng(seed) if seed is not None else None
     result = simulate_descriptor(
-        desc, scene=args.scene, urdf=args.urdf, joints=joints, rng=rng, frames_dir=args.frames, grasp_mode=args.grasp
+        desc, scene=scene, urdf=args.urdf, joints=joints, rng=rng, frames_dir=args.frames, grasp_mode=args.grasp
     )
     if args.json:
         sys.stdout.write(json.dumps(result.to_dict(), indent=2, sort_keys=True) + "\n")

@@ -57,7 +57,17 @@ def test_an_error_after_pybullet_loaded_is_one_stderr_line(tmp_path: Path) -> No
     desc = tmp_path / "door.json"
     desc.write_text(DrawerSpec().descriptor(0.3).to_json())  # a translation: the bottle has no slide
     out = subprocess.run(
-        [sys.executable, "-m", "flows.cli", "simulate", str(desc), "--scene", "bottle", "--store", str(tmp_path / "store")],
+        [
+            sys.executable,
+            "-m",
+            "flows.cli",
+            "simulate",
+            str(desc),
+            "--scene",
+            "bottle",
+            "--store",
+            str(tmp_path / "store"),
+        ],
         capture_output=True,
         text=True,
         timeout=120,

@@ -9,8 +9,6 @@ from pathlib import Path
 
 import pytest
 
-from tests.conftest import REPO
-
 PBD = (sys.executable, "-m", "flows.cli")
 """The pbd command line of this checkout, run as a module by the interpreter running the tests."""
 
