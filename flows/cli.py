@@ -26,7 +26,8 @@ COMMANDS: dict[str, str] = {
     "learn": "segment, fit, plan the grasp and store a descriptor version",
     "transfer": "carry a descriptor to a similar object by registering the object models",
     "simulate": "execute a descriptor in pybullet and report success",
-    "diff": "what changed between two descriptors",
+    "diff": "what changed between two descriptors (or a name's last two versions)",
+    "ls": "list the stored descriptors, or the versions of one",
     "archive": "run the reprocessing flow over every recording in a folder",
     "serve": "serve the Prefect deployments with their schedules",
 }

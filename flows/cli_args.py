@@ -89,6 +89,7 @@ def synth_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--seed", type=int, default=None, metavar="N", help="randomised instance (placement, sizes, pace, sensors)"
     )
+    parser.add_argument("--json", action="store_true", help="print the result as JSON on stdout")
 
 
 def ingest_arguments(parser: argparse.ArgumentParser) -> None:
@@ -103,6 +104,7 @@ def ingest_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--object-model", type=Path, metavar="FILE", help="object model .ply/.pcd/.obj/.stl (world frame)"
     )
+    parser.add_argument("--json", action="store_true", help="print the result as JSON on stdout")
 
 
 def learn_arguments(parser: argparse.ArgumentParser) -> None:
@@ -117,6 +119,7 @@ def learn_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", type=Path, default=None, help="also write the descriptor JSON here (never overwrites)")
     parser.add_argument("--topics", type=Path, default=None, help="topic map YAML for ingest")
     parser.add_argument("--seed", type=int, default=0, help="seed for k-means and the grasp planner")
+    parser.add_argument("--json", action="store_true", help="print the result as JSON on stdout")
 
 
 def transfer_arguments(parser: argparse.ArgumentParser) -> None:
@@ -136,6 +139,7 @@ def transfer_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--strict", action="store_true", help="a poor registration is an error (exit 2)")
     parser.add_argument("--replan-grasp", action="store_true", help="re-plan the grasp on the target model")
     parser.add_argument("--seed", metavar="N", type=int, default=0, help="random seed (default 0)")
+    parser.add_argument("--json", action="store_true", help="print the result as JSON on stdout")
 
 
 def simulate_arguments(parser: argparse.ArgumentParser) -> None:
@@ -162,9 +166,17 @@ def simulate_arguments(parser: argparse.ArgumentParser) -> None:
 
 def diff_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of ``pbd diff``."""
-    parser.add_argument("a", metavar="A", help="descriptor: file, content id (8+ hex) or name@vN / name@latest")
-    parser.add_argument("b", metavar="B", help="descriptor to compare with A")
+    parser.add_argument(
+        "a", metavar="A", help="descriptor (file, content id, name@vN, name@latest), or a NAME: its last two versions"
+    )
+    parser.add_argument("b", metavar="B", nargs="?", default=None, help="descriptor to compare with A")
     parser.add_argument("--json", action="store_true", help="print the diff as JSON on stdout")
+
+
+def ls_arguments(parser: argparse.ArgumentParser) -> None:
+    """Arguments of ``pbd ls``."""
+    parser.add_argument("name", metavar="NAME", nargs="?", default=None, help="list this descriptor's versions")
+    parser.add_argument("--json", action="store_true", help="print the listing as JSON on stdout")
 
 
 def archive_arguments(parser: argparse.ArgumentParser) -> None:
@@ -187,6 +199,9 @@ def serve_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--cron", default="0 3 * * *", help="schedule of the nightly run (default 03:00 UTC)")
     parser.add_argument("--workers", type=int, default=2, help="recordings in flight per archive run")
     parser.add_argument("--limit", type=int, default=2, help="flow runs executed at once by this server")
+    parser.add_argument(
+        "--address", metavar="tcp://HOST:PORT", help="default Dask scheduler of the nightly run's tasks"
+    )
 
 
 ARGUMENTS: dict[str, Callable[[argparse.ArgumentParser], None]] = {
@@ -197,6 +212,7 @@ ARGUMENTS: dict[str, Callable[[argparse.ArgumentParser], None]] = {
     "transfer": transfer_arguments,
     "simulate": simulate_arguments,
     "diff": diff_arguments,
+    "ls": ls_arguments,
     "archive": archive_arguments,
     "serve": serve_arguments,
 }

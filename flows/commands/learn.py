@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
 import sys
 from pathlib import Path
 from typing import Any
@@ -62,7 +63,11 @@ def run(args: argparse.Namespace) -> int:
         dirs = ", ".join(f"{v:.4f}" for v in p.dir)
         span = f" t={p.t_start:.2f}..{p.t_end:.2f} s" if p.t_start is not None and p.t_end is not None else ""
         lines.append(f"  {i}: {p.kind:<11} extent {p.extent:.4f} {unit} dir [{dirs}]{pos}{span}")
-    sys.stdout.write("\n".join(lines) + "\n")
+    if args.json:
+        out = {"ref": f"{put.name}@v{put.version}", "status": status, "path": str(put.path), **desc.to_dict()}
+        sys.stdout.write(json.dumps(out, indent=2) + "\n")
+    else:
+        sys.stdout.write("\n".join(lines) + "\n")
     if args.out is not None:
         write_bytes_atomic(args.out, desc.to_json().encode())
     return 0

@@ -8,6 +8,7 @@ Prefect ever; pybullet only once the arguments are checked).
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 
 from tasks.errors import SceneError
@@ -26,6 +27,9 @@ def run(args: argparse.Namespace) -> int:
     check_output(args.out, args.format)
 
     out = synthesize(args.scene, args.seed, args.out, args.format)
-    sys.stdout.write(f"{out}\n{truth_path(out)}\n")
+    if args.json:
+        sys.stdout.write(json.dumps({"recording": str(out), "truth": str(truth_path(out))}) + "\n")
+    else:
+        sys.stdout.write(f"{out}\n{truth_path(out)}\n")
     sys.stdout.flush()
     return 0

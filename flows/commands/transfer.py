@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import json
 import re
 import sys
 from pathlib import Path
@@ -64,6 +65,22 @@ def run(args: argparse.Namespace) -> int:
     reg = result.registration
     for warning in result.warnings:
         sys.stderr.write(f"pbd transfer: warning: {warning}\n")
+    if args.json:
+        out = {
+            "ref": f"{put.name}@v{put.version}",
+            "created": put.created,
+            "id": put.id,
+            "parent": source.id,
+            "fitness": reg.best.fitness,
+            "inlier_rmse_m": reg.best.inlier_rmse_m,
+            "scale": reg.best.transform.scale,
+            "axis_spread_deg": result.axis_spread_deg,
+            "axis_spread_mm": result.axis_spread_mm,
+            "crop_radius_m": reg.crop_radius_m,
+            "poor": result.poor,
+        }
+        sys.stdout.write(json.dumps(out, indent=2) + "\n")
+        return 0
     sys.stdout.write(
         f"{put.name}@v{put.version}{'' if put.created else ' (unchanged)'}\n"
         f"id {put.id}\n"
