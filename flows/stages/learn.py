@@ -75,11 +75,7 @@ def _params_of(cls: type[P], params: dict[str, Any] | None, what: str) -> P:
     if unknown:
         msg = f"unknown {what} parameter(s) {', '.join(unknown)} (known: {', '.join(sorted(known))})"
         raise ParameterError(msg)
-    try:
-        return cls(**(params or {}))
-    except TypeError as err:
-        msg = f"{what} parameters {params}: {err}"
-        raise ParameterError(msg) from err
+    return cls(**(params or {}))
 
 
 def _checked(fn: Any, value: Any) -> Any:
