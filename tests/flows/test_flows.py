@@ -111,6 +111,7 @@ def test_process_recording_names_by_meta_and_leaves_artifacts(prefect_harness: N
         md = client.read_latest_artifacts()
     by_key = {a.key: a for a in md}
     assert "open-door@v1" in str(by_key["pbd-run-summary"].data)
+    assert "open-door@v1" in str(by_key["pbd-run-table"].data)
     report = Path(summary["report"] or "")
     assert report.is_file()
     figures = store / "reports" / "figures"

@@ -111,3 +111,4 @@ def test_report_lists_a_failed_recording(store: Store) -> None:
     assert "failed: ingest: truncated at byte 10" in paths.html.read_text()
     md = summary_markdown("with a failure", [failed], None)
     assert "| broken.mcap | - | - | failed: ingest: truncated at byte 10 | - | - |" in md
+    assert "- `/archive/broken.mcap`: ingest: truncated at byte 10" in md
