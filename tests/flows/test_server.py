@@ -102,10 +102,13 @@ def _run_deployment(served: Served, name: str, *params: str) -> subprocess.Compl
 
 
 def test_a_failed_recording_fails_the_deployment_run(served: Served, tmp_path: Path) -> None:
-    out = _run_deployment(served, "process-recording/on-demand", f"recording={tmp_path / 'missing.mcap'}")
+    missing = str(tmp_path / "missing.mcap")
+    out = _run_deployment(served, "process-recording/on-demand", f"recording={missing}")
     assert out.returncode != 0
-    assert "Failed" in out.stdout + out.stderr
-    assert "1 of 1 recordings failed" in out.stdout + out.stderr
+    runs = flow_runs(served.server.api_url, deployment_id(served.server.api_url, "process-recording", "on-demand"))
+    (ours,) = [r for r in runs if r["parameters"].get("recording") == missing]  # type: ignore[union-attr]
+    assert ours["state_type"] == "FAILED"
+    assert "1 of 1 recordings failed; first: missing.mcap: ingest: " in str(ours["state"])
 
 
 def test_the_nightly_deployment_takes_a_dask_address(served: Served, tmp_path: Path) -> None:
@@ -115,10 +118,9 @@ def test_the_nightly_deployment_takes_a_dask_address(served: Served, tmp_path: P
     out = _run_deployment(served, "reprocess-archive/nightly", f"archive={archive}", f"address={closed}")
     assert out.returncode != 0
     runs = flow_runs(served.server.api_url, deployment_id(served.server.api_url, "reprocess-archive", "nightly"))
-    ours = [r for r in runs if r["parameters"].get("address") == closed]  # type: ignore[union-attr]
-    assert len(ours) == 1
-    assert ours[0]["state_type"] == "FAILED"
-    assert f"--address {closed}: no Dask scheduler answers there" in str(ours[0]["state"])
+    (ours,) = [r for r in runs if r["parameters"].get("address") == closed]  # type: ignore[union-attr]
+    assert ours["state_type"] == "FAILED"
+    assert f"--address {closed}: no Dask scheduler answers there" in str(ours["state"])
 
 
 def test_the_cli_exits_1_when_a_recording_fails(served: Served, tmp_path: Path) -> None:
