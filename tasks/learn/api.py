@@ -9,7 +9,7 @@ from __future__ import annotations
 import hashlib
 import re
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -22,7 +22,7 @@ from tasks.errors import FitError, GraspError
 from tasks.grasp import worker_pool
 from tasks.grasp.api import plan_grasp_for_recording
 from tasks.grasp.planner import PlannerParams
-from tasks.learn.boundaries import refine_boundaries
+from tasks.learn.boundaries import refine_boundaries, trim_to_motion
 from tasks.learn.chain import (
     HAND_ONLY,
     SegmentFit,
@@ -32,8 +32,10 @@ from tasks.learn.chain import (
     primitive_fit_json,
     refine_extents,
 )
+from tasks.learn.hand import hand_by_motion
 from tasks.learn.params import LearnParams
-from tasks.learn.prepare import PreparedRecording, prepare
+from tasks.learn.prepare import PreparedRecording, is_orientation_marker, prepare
+from tasks.learn.reversals import split_reversals
 from tasks.recording.load import RecordingData
 from tasks.segment.changepoint import ChangepointParams, search
 from tasks.segment.spectral import runs_from_labels, spectral_labels
@@ -96,6 +98,8 @@ def segment_recording(rec: RecordingData, params: LearnParams, rng: np.random.Ge
 def fit_segments(rec: RecordingData, spans: list[tuple[float, float]], params: LearnParams) -> LearnResult:
     """Classify and fit each span (s) of the recording; the chain M (time order) with extents C."""
     prep = prepare(rec, params.sigma_floor_m, params.hand_pattern)
+    if params.classifier == "bic" and (found := hand_by_motion(prep, spans, params) - prep.hand):
+        prep = replace(prep, hand=prep.hand | found)
     fits = [fit_span(prep, a, b, params) for a, b in spans]
     if all(f.kind == "still" for f in fits):
         names = ", ".join(tr.name for tr in prep.tracks)
@@ -103,6 +107,8 @@ def fit_segments(rec: RecordingData, spans: list[tuple[float, float]], params: L
         raise FitError(msg, None, (spans[0][0], spans[-1][1]))
     if params.classifier == "bic":
         fits = merge_adjacent(prep, fits, params)
+        fits = split_reversals(prep, fits, params)
+        fits = trim_to_motion(prep, fits)
         fits = refine_boundaries(prep, fits)  # first: the rests then hold no slow start or stop of the motion
         fits = refine_extents(prep, fits)
         fits = drop_small(fits, params.min_motion_m)
@@ -138,7 +144,7 @@ def _primitive(f: SegmentFit) -> Primitive:
         extent=float(f.extent),
         t_start=round(f.t_start, 6),
         t_end=round(f.t_end, 6),
-        markers=f.markers,
+        markers=tuple(m for m in f.markers if not is_orientation_marker(m)),
         fit=primitive_fit_json(f),
     )
 
