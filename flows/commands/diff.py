@@ -36,5 +36,6 @@ def run(args: argparse.Namespace) -> int:
         out = {**d.to_dict(), "refs": [ref_a, ref_b], "values": values}
         sys.stdout.write(json.dumps(out, indent=2, sort_keys=True) + "\n")
     else:
-        sys.stdout.write("\n".join([f"{ref_a} -> {ref_b}", *format_diff(d), *format_values(values)]) + "\n")
+        head, *changes = format_diff(d)
+        sys.stdout.write("\n".join([head, f"  compared: {ref_a} -> {ref_b}", *changes, *format_values(values)]) + "\n")
     return 0 if d.same else 1

@@ -69,7 +69,7 @@ def test_ls_lists_names_then_versions(two_versions: Store, capsys: pytest.Captur
 def test_diff_of_a_name_shows_old_and_new_values(two_versions: Store, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["diff", "open-test-door", "--store", str(two_versions.root)]) == 1  # different
     out = capsys.readouterr().out
-    assert out.splitlines()[0] == "open-test-door@v1 -> open-test-door@v2"
+    assert out.splitlines()[1] == "  compared: open-test-door@v1 -> open-test-door@v2"
     assert "rotation 0->0: extent 1.0000 -> 1.2000 rad" in out
     assert "parameter seed: 1 -> 2" in out
     assert main(["diff", "open-test-door@v1", "open-test-door@v2", "--store", str(two_versions.root), "--json"]) == 1

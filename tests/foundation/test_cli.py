@@ -20,6 +20,7 @@ def test_every_documented_command_is_there() -> None:
         "transfer",
         "simulate",
         "diff",
+        "ls",
         "archive",
         "serve",
     }
