@@ -1,12 +1,25 @@
-"""One exception family for pbd. The CLI turns a ``PbdError`` into one line on stderr and exit 2."""
+"""One exception family for pbd (root ``PbdError`` in ``schemas.errors``). The CLI turns a ``PbdError`` into one
+line on stderr and exit 2."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
+from schemas.errors import DescriptorError, PbdError
 
-class PbdError(Exception):
-    """Root of every error pbd raises on purpose (bad input, failed fit, store conflict)."""
+__all__ = [
+    "DescriptorError",
+    "FitError",
+    "GraspError",
+    "PbdError",
+    "RecordingError",
+    "SceneError",
+    "SimulationError",
+    "StoreError",
+    "TopicMapError",
+    "TransferError",
+    "TruncatedRecordingError",
+]
 
 
 class RecordingError(PbdError):
@@ -35,14 +48,6 @@ class TopicMapError(PbdError):
     def __init__(self, path: str | Path, what: str) -> None:
         self.path = str(path)
         super().__init__(f"{path}: {what}")
-
-
-class DescriptorError(PbdError):
-    """A descriptor is malformed, fails its JSON Schema, or cannot be resolved."""
-
-    def __init__(self, source: str | Path, what: str) -> None:
-        self.source = str(source)
-        super().__init__(f"{source}: {what}")
 
 
 class StoreError(PbdError):
@@ -81,12 +86,3 @@ class TransferError(PbdError):
 
 class SimulationError(PbdError):
     """A descriptor does not fit the scene it is executed in."""
-
-
-class NotBuiltError(PbdError):
-    """A command whose capability has not been built yet."""
-
-    def __init__(self, command: str, issue: int) -> None:
-        self.command = command
-        self.issue = issue
-        super().__init__(f"not built yet (tracked in issue {issue})")

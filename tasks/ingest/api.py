@@ -16,6 +16,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
 
 from schemas.tables import (
     INGEST_VERSION,
@@ -32,6 +34,7 @@ from tasks.errors import RecordingError
 from tasks.ingest import roles as rl
 from tasks.ingest.containers import KNOWN_ENCODINGS, RawRecording, read_recording
 from tasks.ingest.extract import Extracted, MarkerChunk, PoseChunk, child_frames, extract_topic
+from tasks.ingest.object_model import load_object_model
 from tasks.store import Store
 
 
@@ -109,8 +112,6 @@ def assign_roles(raw: RawRecording, topics_map: Path | None) -> tuple[dict[str, 
 
 
 def _markers_table(chunks: list[MarkerChunk]) -> Any:
-    import pyarrow as pa  # noqa: PLC0415
-
     merged: dict[str, list[MarkerChunk]] = {}
     for c in chunks:
         merged.setdefault(c.name, []).append(c)
@@ -148,8 +149,6 @@ def _markers_table(chunks: list[MarkerChunk]) -> Any:
 
 
 def _poses_table(chunks: list[PoseChunk]) -> Any:
-    import pyarrow as pa  # noqa: PLC0415
-
     chunks = sorted(chunks, key=lambda c: c.frame)
     frames, roles, stamps, vals = [], [], [], []
     for c in chunks:
@@ -191,7 +190,6 @@ def ingest_recording(
     messages before the damage and the loss is reported in ``lost_messages`` (exact where rosbag2 metadata counts
     the messages, an estimate otherwise) and ``warnings``.
     """
-    import pyarrow.parquet as pq  # noqa: PLC0415
 
     source = Path(source)
     rec_id = recording_id_of(source)
@@ -220,8 +218,6 @@ def ingest_recording(
     warnings += ex.warnings
     model_info: dict[str, Any] | None = None
     if object_model is not None:
-        from tasks.ingest.object_model import load_object_model  # noqa: PLC0415
-
         pts, sha = load_object_model(Path(object_model))
         if ex.object_model is not None:
             warnings.append(f"{source}: --object-model {object_model} replaces the recording's object cloud")
@@ -252,8 +248,6 @@ def ingest_recording(
         pq.write_table(_markers_table(ex.markers), stage / MARKERS_FILE, use_dictionary=["marker"])
         pq.write_table(_poses_table(ex.poses), stage / POSES_FILE, use_dictionary=["frame", "role"])
         if ex.object_model is not None:
-            import pyarrow as pa  # noqa: PLC0415
-
             m = ex.object_model
             table = pa.Table.from_arrays(
                 [pa.array(np.ascontiguousarray(m[:, i])) for i in range(3)], schema=OBJECT_MODEL_SCHEMA

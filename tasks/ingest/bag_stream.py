@@ -15,6 +15,8 @@ import bz2
 import struct
 from dataclasses import dataclass, field
 
+import lz4.frame
+
 from tasks.errors import RecordingError, TruncatedRecordingError
 from tasks.ingest.mcap_stream import Batch
 
@@ -164,8 +166,6 @@ def _walk(buf: bytes, start: int, end: int, content: BagContent, top: bool) -> i
                 elif compression == "bz2":
                     inner = bz2.decompress(raw)
                 elif compression == "lz4":
-                    import lz4.frame  # noqa: PLC0415
-
                     inner = lz4.frame.decompress(raw)
                 else:
                     raise _BadRecordError(f"unknown chunk compression {compression!r}")

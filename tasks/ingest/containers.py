@@ -21,6 +21,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import yaml
+import zstandard
+
 from tasks.errors import RecordingError
 from tasks.ingest.bag_stream import read_bag
 from tasks.ingest.mcap_stream import Batch, McapContent, read_mcap
@@ -200,8 +203,6 @@ def _read_bag(path: Path, recover: bool) -> RawRecording:
 
 # -- rosbag2 ----------------------------------------------------------------------------------------
 def _metadata(path: Path) -> dict[str, Any]:
-    import yaml  # noqa: PLC0415
-
     meta_path = path / "metadata.yaml"
     if not meta_path.is_file():
         files = sorted(p.name for p in path.iterdir()) if path.is_dir() else []
@@ -284,8 +285,6 @@ def _read_rosbag2(path: Path, recover: bool) -> RawRecording:
 
 
 def _unzstd(data: bytes, where: Path) -> bytes:
-    import zstandard  # noqa: PLC0415
-
     try:
         return bytes(zstandard.ZstdDecompressor().decompressobj().decompress(data))
     except zstandard.ZstdError as err:

@@ -12,6 +12,8 @@ import json
 from collections.abc import Iterator
 from typing import Any
 
+from rosbags.typesys import Stores, get_types_from_idl, get_types_from_msg, get_typestore
+
 from tasks.errors import RecordingError
 from tasks.ingest.containers import RawTopic
 
@@ -20,7 +22,6 @@ _IDL_SEP = "=" * 80
 
 def typestore_for(topic: RawTopic, path: str) -> Any:
     """A rosbags typestore holding ``topic.msgtype`` and its dependencies; raises ``RecordingError``."""
-    from rosbags.typesys import Stores, get_types_from_idl, get_types_from_msg, get_typestore  # noqa: PLC0415
 
     if not topic.schema:
         store = get_typestore(Stores.ROS1_NOETIC if topic.encoding == "ros1" else Stores.LATEST)

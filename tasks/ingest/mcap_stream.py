@@ -19,8 +19,10 @@ import struct
 import zlib
 from dataclasses import dataclass, field
 
+import lz4.frame
 import numpy as np
 import numpy.typing as npt
+import zstandard
 
 from tasks.errors import RecordingError, TruncatedRecordingError
 
@@ -148,8 +150,6 @@ def _decompress(compression: str, data: memoryview | bytes, size: int, partial: 
     if compression == "":
         return bytes(data)
     if compression == "zstd":
-        import zstandard  # noqa: PLC0415
-
         if partial:
             try:
                 return bytes(zstandard.ZstdDecompressor().decompressobj().decompress(data))
@@ -157,8 +157,6 @@ def _decompress(compression: str, data: memoryview | bytes, size: int, partial: 
                 return b""
         return bytes(zstandard.ZstdDecompressor().decompress(data, max_output_size=size))
     if compression == "lz4":
-        import lz4.frame  # noqa: PLC0415
-
         if partial:
             try:
                 return bytes(lz4.frame.LZ4FrameDecompressor().decompress(data))
@@ -422,8 +420,6 @@ def _chunk_header(rec: memoryview | bytes) -> tuple[int, int, str, int, int]:
 
 
 def _read_chunk(rec: memoryview, content: McapContent, collector: _Collector, indexes: list[tuple[int, bytes]]) -> None:
-    import zstandard  # noqa: PLC0415
-
     try:
         usize, crc, compression, rstart, rlen = _chunk_header(rec)
     except (ValueError, struct.error) as err:

@@ -7,6 +7,8 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import yaml
+
 from tasks.errors import TopicMapError
 
 POINT = "geometry_msgs/msg/PointStamped"
@@ -71,7 +73,6 @@ class TopicMap:
 
 def parse_topic_map(path: Path) -> TopicMap:
     """Read a topic map YAML: ``markers: [..]``, ``wrist: t``, ``object_model: t``, ``meta: t``, ``ignore: [..]``."""
-    import yaml  # noqa: PLC0415
 
     try:
         doc = yaml.safe_load(path.read_text())

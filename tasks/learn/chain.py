@@ -15,6 +15,7 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from tasks.arrays import FloatArray, Points
 from tasks.fit.geometry import perpendicular_basis, unit
@@ -323,7 +324,6 @@ def _rest_samples(track: Track, fits: list[SegmentFit], i: int, step: int) -> Po
 
 def _rest_orientation(times: FloatArray, quats: FloatArray, window: tuple[float, float]) -> FloatArray | None:
     """Mean orientation (rotation matrix) of a rigid body over a rest window, None without samples."""
-    from scipy.spatial.transform import Rotation  # noqa: PLC0415
 
     keep = (times >= window[0]) & (times < window[1])
     if keep.sum() < MIN_SAMPLES:
@@ -346,7 +346,6 @@ def _orientation_angle(
 ) -> float | None:
     """Turn (rad) about ``axis_dir`` between the rest orientations of a rigid-body marker of segment i's part,
     or None when no marker of the part has orientations at rest on both sides."""
-    from scipy.spatial.transform import Rotation  # noqa: PLC0415
 
     angles = []
     for name in fits[i].markers:
