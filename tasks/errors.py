@@ -90,3 +90,16 @@ class NotBuiltError(PbdError):
         self.command = command
         self.issue = issue
         super().__init__(f"not built yet (tracked in issue {issue})")
+
+
+NAMES_SHOWN = 5
+"""Names an error or warning lists before "and N more": enough to recognise them, and the line stays short."""
+NAME_CHARS = 60
+"""Characters of one name shown in an error or warning line (a topic or marker name is rarely longer)."""
+
+
+def bounded(names: list[str] | tuple[str, ...], first: int = NAMES_SHOWN) -> str:
+    """``a, b, c`` or ``a, b, c, d, e and 7 more``: at most ``first`` names, each cut to ``NAME_CHARS``."""
+    shown = [n if len(n) <= NAME_CHARS else n[: NAME_CHARS - 3] + "..." for n in names[:first]]
+    more = len(names) - len(shown)
+    return ", ".join(shown) + (f" and {more} more" if more > 0 else "")

@@ -30,7 +30,8 @@ from schemas.tables import (
 )
 from tasks.errors import RecordingError
 from tasks.ingest import roles as rl
-from tasks.ingest.containers import KNOWN_ENCODINGS, RawRecording, read_recording
+from tasks.ingest.containers import KNOWN_ENCODINGS, read_recording
+from tasks.ingest.raw import RawRecording
 from tasks.ingest.extract import Extracted, MarkerChunk, PoseChunk, child_frames, extract_topic
 from tasks.store import Store
 

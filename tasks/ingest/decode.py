@@ -13,7 +13,7 @@ from collections.abc import Iterator
 from typing import Any
 
 from tasks.errors import RecordingError
-from tasks.ingest.containers import RawTopic
+from tasks.ingest.raw import RawTopic
 
 _IDL_SEP = "=" * 80
 

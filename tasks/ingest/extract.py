@@ -15,7 +15,7 @@ import numpy.typing as npt
 from tasks.errors import RecordingError
 from tasks.ingest import roles as rl
 from tasks.ingest.bulk import N_FLOATS, bulk_decode
-from tasks.ingest.containers import RawTopic
+from tasks.ingest.raw import RawTopic
 from tasks.ingest.decode import decode_topic
 
 IntArray = npt.NDArray[np.int64]

@@ -18,11 +18,14 @@ from __future__ import annotations
 import struct
 import zlib
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
 
 from tasks.errors import RecordingError, TruncatedRecordingError
+from tasks.ingest.selection import SMALL_PAYLOAD_BYTES, Keep, Want, keep_all, normalize_type
+from tasks.ingest.source import FileSource
 
 MAGIC = b"\x89MCAP0\r\n"
 OP_HEADER, OP_FOOTER, OP_SCHEMA, OP_CHANNEL, OP_MESSAGE, OP_CHUNK, OP_MESSAGE_INDEX, OP_DATA_END = (
@@ -103,15 +106,27 @@ class McapContent:
     damage: str | None = None
     """What was wrong where reading stopped (only with ``recover=True``)."""
     damage_offset: int | None = None
+    cut_chunk: int | None = None
+    """Where the chunk the damage cut starts (None: the damage is not inside a chunk)."""
     lost_bytes: int = 0
     lost_messages: int = 0
-    """A lower bound of the messages lost: those of a chunk cut by the damage (estimated from its size)."""
+    """The messages lost in the chunk the damage cut (estimated from the uncompressed size its header gives and
+    the mean message size), at least 1 when a chunk or message was cut; whatever followed is not counted."""
     past_data: bool = False
     """The damage lies after the data section (in the summary): no message was lost."""
+    counts: dict[int, int] = field(default_factory=dict)
+    """Messages per channel id, kept or not."""
+    log_range: tuple[int, int] | None = None
+    """Earliest and latest log time (ns) of every message, kept or not."""
+    summary_channels: bool = False
+    """Schemas and channels were read from an intact summary: every channel is known before the data."""
 
-    def count(self, channel_id: int) -> int:
-        """Messages read on a channel."""
-        return sum(len(b) for b in self.batches.get(channel_id, []))
+    def note_log(self, lo: int, hi: int) -> None:
+        """Widen ``log_range`` to include [lo, hi] (ns)."""
+        if self.log_range is None:
+            self.log_range = (lo, hi)
+        else:
+            self.log_range = (min(self.log_range[0], lo), max(self.log_range[1], hi))
 
 
 def _string(buf: memoryview | bytes, pos: int) -> tuple[str, int]:
@@ -169,25 +184,43 @@ def _decompress(compression: str, data: memoryview | bytes, size: int, partial: 
 
 
 class _Collector:
-    """Accumulates message locations per buffer (chunk or file); ``finish`` emits one batch per channel.
+    """Accumulates the kept message payloads per buffer (chunk); ``finish`` emits one batch per channel.
 
-    All buffers are joined into one at the end, so a channel's messages form a single batch however many
-    chunks they came from (the bulk decoder then runs once per topic, not once per chunk).
+    Every message is counted (``content.counts``, ``content.log_range``); payloads are kept as the reader's
+    selection says (``Keep``): a chunk whose messages are all kept stays as it is, otherwise its kept payloads
+    are copied out and the chunk is let go. All kept buffers are joined at the end, so a channel's messages
+    form a single batch however many chunks they came from (the bulk decoder runs once per topic).
     """
 
-    def __init__(self, content: McapContent) -> None:
+    def __init__(self, content: McapContent, want: Want) -> None:
         self.content = content
+        self.want = want
         self.parts: list[tuple[bytes, IntArray, IntArray, IntArray, IntArray]] = []
-        self.top: tuple[bytes, list[int], list[int]] | None = None
+        self.top: list[bytes] = []
         self.count = 0
         self.record_bytes = 0
+        self._keep: dict[int, Keep] = {}
+        self._first_kept: set[int] = set()
 
-    def add_top(self, data: bytes, pos: int, length: int) -> None:
-        """A message record outside any chunk (at ``pos`` of the file ``data``)."""
-        if self.top is None:
-            self.top = (data, [], [])
-        self.top[1].append(pos)
-        self.top[2].append(length)
+    def keep(self, cid: int) -> Keep:
+        """What to keep of channel ``cid`` (decided when it is first needed; an undefined channel: all)."""
+        k = self._keep.get(cid)
+        if k is None:
+            ch = self.content.channels.get(cid)
+            if ch is None:
+                return Keep.ALL
+            schema = self.content.schemas.get(ch.schema_id)
+            k = self.want(ch.topic, normalize_type(schema.name) if schema else "")
+            self._keep[cid] = k
+        return k
+
+    def skip(self, cid: int, n: int) -> None:
+        """Count ``n`` messages of channel ``cid`` that were not read."""
+        self.content.counts[cid] = self.content.counts.get(cid, 0) + n
+
+    def add_top(self, record: bytes) -> None:
+        """A whole message record (opcode, length, content) outside any chunk."""
+        self.top.append(record)
 
     def add_walked(self, buf: bytes, rec_offsets: list[int], rec_lengths: list[int]) -> None:
         """Message records found by walking: read their fixed fields in bulk."""
@@ -206,16 +239,52 @@ class _Collector:
             heads = gather_bytes(np.frombuffer(buf, dtype=np.uint8), rec_off, _MSG_HEAD)
         chan = heads[:, 9:11].copy().view("<u2").reshape(-1).astype(np.int64)
         log = heads[:, 15:23].copy().view("<u8").reshape(-1).astype(np.int64)
-        self.parts.append((buf, chan, log, rec_off + _MSG_HEAD, rec_len - _MSG.size))
         self.count += len(rec_off)
         self.record_bytes += int(rec_len.sum()) + 9 * len(rec_off)
+        if len(log):
+            self.content.note_log(int(log.min()), int(log.max()))
+        present = np.flatnonzero(np.bincount(chan)).tolist()
+        counts = np.bincount(chan)
+        kinds = {cid: self.keep(cid) for cid in present}
+        for cid in present:
+            self.skip(cid, int(counts[cid]))
+        pay_off = rec_off + _MSG_HEAD
+        pay_len = rec_len - _MSG.size
+        if any(k is not Keep.ALL for k in kinds.values()):
+            mask = np.zeros(len(chan), dtype=bool)
+            for cid, k in kinds.items():
+                if k is Keep.NONE:
+                    continue
+                sel = chan == cid
+                if k is Keep.SMALL:
+                    small = sel & (pay_len <= SMALL_PAYLOAD_BYTES)
+                    if cid not in self._first_kept:
+                        small[int(np.argmax(sel))] = True
+                    sel = small
+                mask |= sel
+            if not mask.any():
+                return
+            if not mask.all():
+                view = memoryview(buf)
+                kept_off, kept_len = pay_off[mask].tolist(), pay_len[mask].tolist()
+                buf = b"".join([view[o : o + n] for o, n in zip(kept_off, kept_len, strict=True)])
+                pay_len = pay_len[mask]
+                pay_off = np.zeros(len(pay_len), dtype=np.int64)
+                if len(pay_len) > 1:
+                    np.cumsum(pay_len[:-1], out=pay_off[1:])
+                chan, log = chan[mask], log[mask]
+        self._first_kept.update(np.unique(chan).tolist())
+        self.parts.append((buf, chan, log, pay_off, pay_len))
 
     def finish(self) -> None:
         """Join the buffers and put one batch per channel into the content."""
-        if self.top is not None:
-            data, offs, lens = self.top
-            self.top = None
-            self.add_walked(data, offs, lens)
+        if self.top:
+            data = b"".join(self.top)
+            lengths = np.fromiter((len(r) - 9 for r in self.top), dtype=np.int64, count=len(self.top))
+            offsets = np.zeros(len(self.top), dtype=np.int64)
+            np.cumsum(lengths[:-1] + 9, out=offsets[1:])
+            self.top = []
+            self.add_indexed(data, offsets, lengths)
         if not self.parts:
             return
         bufs: list[bytes] = []
@@ -328,32 +397,118 @@ def _index_locations(
     return off, rec_len, heads
 
 
-def read_mcap(data: bytes, path: str, *, recover: bool = False) -> McapContent:
-    """Read an MCAP file's bytes front to back.
+def read_mcap(path: Path, *, recover: bool = False, want: Want = keep_all, label: str | None = None) -> McapContent:
+    """Read an MCAP file front to back, keeping the payloads ``want`` asks for.
 
+    Memory holds one chunk at a time plus the kept payloads. A chunk whose message indexes show only channels
+    whose payloads are not wanted is skipped without being read (its messages are counted from the indexes).
     Raises ``RecordingError`` (not an MCAP, corrupt chunk) or ``TruncatedRecordingError`` (with the byte
-    offset); with ``recover=True`` damage stops the read instead and is described in the result.
+    offset); with ``recover=True`` damage stops the read instead and is described in the result. ``label``
+    names the file in messages (default: ``path``).
     """
-    if not data.startswith(MAGIC):
-        raise RecordingError(path, "not a recording (no MCAP magic)")
+    name = label or str(path)
     content = McapContent()
-    collector = _Collector(content)
-    _read_records(data, path, recover, content, collector)
+    collector = _Collector(content, want)
+    with FileSource(path) as src:
+        if src.read(0, len(MAGIC)) != MAGIC:
+            raise RecordingError(name, "not a recording (no MCAP magic)")
+        _read_summary(src, content)
+        _read_records(src, name, recover, content, collector)
     collector.finish()
     return content
 
 
-def _read_records(data: bytes, path: str, recover: bool, content: McapContent, collector: _Collector) -> None:
+def _read_summary(src: FileSource, content: McapContent) -> None:
+    """Schemas and channels from the summary section, when the footer points at one whose CRC holds."""
+    footer = src.size - len(MAGIC) - 9 - 20
+    if footer <= len(MAGIC) or src.read(src.size - len(MAGIC), len(MAGIC)) != MAGIC:
+        return
+    head = src.read(footer, 29)
+    op, length = _REC.unpack_from(head, 0)
+    if op != OP_FOOTER or length != 20:
+        return
+    start, _offsets, crc = struct.unpack_from("<QQI", head, 9)
+    if not len(MAGIC) < start < footer or footer - start > 64 * 1024 * 1024:
+        return
+    summary = src.read(start, footer + 9 + 16 - start)
+    if crc == 0 or zlib.crc32(summary) != crc:
+        return
+    schemas: dict[int, McapSchema] = {}
+    channels: dict[int, McapChannel] = {}
+    pos = 0
+    end = footer - start
+    try:
+        while pos + 9 <= end:
+            op, length = _REC.unpack_from(summary, pos)
+            body = summary[pos + 9 : pos + 9 + length]
+            if op == OP_SCHEMA:
+                sch = _parse_schema(body)
+                schemas[sch.id] = sch
+            elif op == OP_CHANNEL:
+                ch = _parse_channel(body)
+                channels[ch.id] = ch
+            pos += 9 + length
+    except (ValueError, struct.error):
+        return
+    if channels and all(c.schema_id == 0 or c.schema_id in schemas for c in channels.values()):
+        content.schemas.update(schemas)
+        content.channels.update(channels)
+        content.summary_channels = True
+
+
+def _message_indexes(src: FileSource, pos: int) -> tuple[int, list[tuple[int, bytes]]]:
+    """The MessageIndex records right after a chunk ending at ``pos``: (where they end, [(channel, record)])."""
+    indexes: list[tuple[int, bytes]] = []
+    while pos + 9 <= src.size:
+        op, length = _REC.unpack_from(src.read(pos, 9), 0)
+        if op != OP_MESSAGE_INDEX or pos + 9 + length > src.size or length < 6:
+            break
+        rec = src.read(pos + 9, length)
+        (cid,) = struct.unpack_from("<H", rec, 0)
+        indexes.append((cid, rec))
+        pos += 9 + length
+    return pos, indexes
+
+
+def _skippable(content: McapContent, collector: _Collector, indexes: list[tuple[int, bytes]]) -> bool:
+    """True when the indexes show only known channels whose payloads are not wanted, and the chunk cannot be
+    hiding a channel definition (the summary gave every channel, or the chunk starts with a message)."""
+    if not indexes or not all(cid in content.channels for cid, _ in indexes):
+        return False
+    if any(collector.keep(cid) is not Keep.NONE for cid, _ in indexes):
+        return False
+    if content.summary_channels:
+        return True
+    firsts = [struct.unpack_from("<Q", rec, 14)[0] for _cid, rec in indexes if len(rec) >= 22]
+    return bool(firsts) and min(firsts) == 0
+
+
+def _skip_chunk(src: FileSource, body: int, content: McapContent, collector: _Collector, indexes: list[tuple[int, bytes]]) -> None:
+    """Count the messages of a skipped chunk from its indexes; its header's time span widens the log range."""
+    count = 0
+    for cid, rec in indexes:
+        (n,) = struct.unpack_from("<I", rec, 2)
+        collector.skip(cid, n // 16)
+        count += n // 16
+    start, end, usize = struct.unpack_from("<QQQ", src.read(body, 24), 0)
+    if count:
+        content.note_log(int(start), int(end))
+        collector.count += count
+        collector.record_bytes += int(usize)
+
+
+def _read_records(src: FileSource, path: str, recover: bool, content: McapContent, collector: _Collector) -> None:
     """The record loop of ``read_mcap``; damage with ``recover`` is noted in ``content``."""
-    size = len(data)
+    size = src.size
     pos = len(MAGIC)
     data_end = False  # after DataEnd only the summary follows: damage there loses no message
 
-    def damaged(err: RecordingError, at: int, lost: int = 0) -> None:
+    def damaged(err: RecordingError, at: int, lost: int = 0, chunk: int | None = None) -> None:
         if not recover:
             raise err
         content.damage = str(err.what)
         content.damage_offset = at
+        content.cut_chunk = chunk
         content.lost_bytes = size - at
         content.lost_messages = 0 if data_end else lost
         content.past_data = data_end
@@ -363,49 +518,50 @@ def _read_records(data: bytes, path: str, recover: bool, content: McapContent, c
             return damaged(TruncatedRecordingError(path, pos, "no footer"), pos)
         if pos + 9 > size:
             return damaged(TruncatedRecordingError(path, pos, "record header cut off"), pos)
-        op, length = _REC.unpack_from(data, pos)
+        op, length = _REC.unpack_from(src.read(pos, 9), 0)
         body = pos + 9
         if body + length > size:
-            lost = 0
-            if op == OP_CHUNK and recover:
-                lost = _salvage_chunk(data, pos, content, collector)
-            elif op == OP_MESSAGE:
-                lost = 1
+            if op == OP_CHUNK:
+                lost = _salvage_chunk(src, pos, collector) if recover else 0
+                what = f"the chunk at byte {pos} is cut off at byte {size}"
+                return damaged(TruncatedRecordingError(path, size, what), size, lost, pos)
+            lost = 1 if op == OP_MESSAGE else 0
             return damaged(TruncatedRecordingError(path, pos, f"record of {length} bytes cut off"), pos, lost)
-        rec = memoryview(data)[body : body + length]
         try:
+            if op == OP_CHUNK:
+                nxt, indexes = _message_indexes(src, body + length)
+                if _skippable(content, collector, indexes):
+                    _skip_chunk(src, body, content, collector, indexes)
+                else:
+                    _read_chunk(memoryview(src.read(body, length)), content, collector, indexes)
+                pos = nxt
+                continue
+            if op == OP_MESSAGE and length >= _MSG.size:
+                cid, _seq, log = struct.unpack_from("<HIQ", src.read(body, 14), 0)
+                if cid in content.channels and collector.keep(cid) is Keep.NONE:
+                    collector.skip(cid, 1)
+                    content.note_log(log, log)
+                else:
+                    collector.add_top(src.read(pos, 9 + length))
+                pos = body + length
+                continue
+            rec = src.read(body, length) if op != OP_MESSAGE_INDEX else b""
             if op == OP_HEADER:
-                content.profile, _ = _string(data, body)
+                content.profile, _ = _string(rec, 0)
             elif op == OP_DATA_END:
                 data_end = True
             elif op == OP_FOOTER:
-                if data[body + length : body + length + 8] != MAGIC:
+                if src.read(body + length, 8) != MAGIC:
                     return damaged(TruncatedRecordingError(path, body + length, "end magic missing"), body + length)
                 return None
             elif op == OP_SCHEMA:
-                s = _parse_schema(bytes(rec))
+                s = _parse_schema(rec)
                 content.schemas.setdefault(s.id, s)
             elif op == OP_CHANNEL:
-                c = _parse_channel(bytes(rec))
+                c = _parse_channel(rec)
                 content.channels.setdefault(c.id, c)
             elif op == OP_MESSAGE:
-                if length < _MSG.size:
-                    raise _CorruptError(f"message record at byte {pos} too short")
-                collector.add_top(data, pos, length)
-            elif op == OP_CHUNK:
-                # message indexes follow the chunk: collect them first
-                nxt = body + length
-                indexes: list[tuple[int, bytes]] = []
-                while nxt + 9 <= size:
-                    op2, len2 = _REC.unpack_from(data, nxt)
-                    if op2 != OP_MESSAGE_INDEX or nxt + 9 + len2 > size:
-                        break
-                    (cid,) = struct.unpack_from("<H", data, nxt + 9)
-                    indexes.append((cid, data[nxt + 9 : nxt + 9 + len2]))
-                    nxt += 9 + len2
-                _read_chunk(rec, content, collector, indexes)
-                pos = nxt
-                continue
+                raise _CorruptError(f"message record at byte {pos} too short")
         except _CorruptError as err:
             return damaged(RecordingError(path, f"corrupt chunk at byte {pos} ({err})"), pos)
         except (ValueError, struct.error) as err:
@@ -459,22 +615,22 @@ def _read_chunk(rec: memoryview, content: McapContent, collector: _Collector, in
     collector.add_walked(buf, msgs[0], msgs[1])
 
 
-def _salvage_chunk(data: bytes, at: int, content: McapContent, collector: _Collector) -> int:
+def _salvage_chunk(src: FileSource, at: int, collector: _Collector) -> int:
     """Keep the complete records at the front of a chunk cut off by the end of the file.
 
     Returns an estimate of the messages of this chunk that are lost (at least 1): the chunk's missing
-    uncompressed bytes over the mean message record size seen so far.
+    uncompressed bytes (its header gives its size) over the mean message record size seen so far.
     """
     records = collector.record_bytes
     count = collector.count
-    body = data[at + 9 :]
+    body = src.read(at + 9, src.size - at - 9)
     try:
         usize, _crc, compression, rstart, _rlen = _chunk_header(body)
         buf = _decompress(compression, body[rstart:], 0, partial=True)
     except (ValueError, struct.error, _CorruptError):
         return 1
     msgs: tuple[list[int], list[int]] = ([], [])
-    _walk_prefix(buf, content, msgs)
+    _walk_prefix(buf, collector.content, msgs)
     collector.add_walked(buf, msgs[0], msgs[1])
     covered = msgs[0][-1] + 9 + msgs[1][-1] if msgs[0] else 0
     records += sum(msgs[1]) + 9 * len(msgs[1])
