@@ -405,9 +405,7 @@ def read_bag(path: Path, *, recover: bool = False, want: Want = keep_all, label:
     return content
 
 
-def _note_damage(
-    content: BagContent, what: str, offset: int, cut: tuple[int, int] | None, salvaged: int
-) -> None:
+def _note_damage(content: BagContent, what: str, offset: int, cut: tuple[int, int] | None, salvaged: int) -> None:
     """Record the damage and what it cost: ``cut`` (uncompressed size, bytes salvaged) of a chunk the damage
     cut (None: none was), ``salvaged`` the messages kept from its front.
 

@@ -14,10 +14,7 @@ carries, and its raw payloads as ``Batch``es (nothing is decoded here). Containe
 from __future__ import annotations
 
 import contextlib
-import sqlite3
 import tempfile
-from collections.abc import Iterator
-from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath, PureWindowsPath
 from typing import Any
 
@@ -26,7 +23,7 @@ from tasks.ingest.bag_stream import read_bag
 from tasks.ingest.mcap_stream import Batch, McapContent, read_mcap
 from tasks.ingest.raw import RawRecording, RawTopic
 from tasks.ingest.rosbag2_sqlite import read_sqlite_files
-from tasks.ingest.selection import Keep, Want, keep_all, normalize_type
+from tasks.ingest.selection import Want, keep_all, normalize_type
 
 KNOWN_ENCODINGS = ("cdr", "ros1", "json")
 
@@ -108,9 +105,7 @@ def _read_mcap_file(path: Path, recover: bool, want: Want) -> RawRecording:
             else "the record the damage cut"
         )
         rec.warnings.append(
-            _recovery_warning(
-                rec, content.damage, past_data=content.past_data, past=past, estimated=False, basis=basis
-            )
+            _recovery_warning(rec, content.damage, past_data=content.past_data, past=past, estimated=False, basis=basis)
         )
     return rec
 
@@ -124,7 +119,9 @@ def _recovery_warning(
     if past_data:
         return f"{rec.path}: {damage}; recovered all {kept} messages ({past})"
     if estimated:
-        return f"{rec.path}: {damage}; recovered {kept} messages, lost about {rec.lost_messages} (estimated from {basis})"
+        return (
+            f"{rec.path}: {damage}; recovered {kept} messages, lost about {rec.lost_messages} (estimated from {basis})"
+        )
     return (
         f"{rec.path}: {damage}; recovered {kept} messages, lost at least {rec.lost_messages} "
         f"(a lower bound: {basis}; what was recorded after the damage cannot be counted)"
@@ -323,10 +320,10 @@ def _read_rosbag2_mcap(path: Path, files: list[Path], recover: bool, want: Want)
         _topics_from_mcap(content, f, topics, "cdr")
         if content.log_range is not None:
             lo, hi = content.log_range
-            rec.log_range = (lo, hi) if rec.log_range is None else (min(rec.log_range[0], lo), max(rec.log_range[1], hi))
+            rec.log_range = (
+                (lo, hi) if rec.log_range is None else (min(rec.log_range[0], lo), max(rec.log_range[1], hi))
+            )
         if content.damage is not None:
             rec.warnings.append(f"{f}: {content.damage}")
             rec.lost_messages += content.lost_messages  # replaced by the exact loss where metadata.yaml counts
     return rec
-
-

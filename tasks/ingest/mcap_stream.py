@@ -118,6 +118,8 @@ class McapContent:
     """Messages per channel id, kept or not."""
     log_range: tuple[int, int] | None = None
     """Earliest and latest log time (ns) of every message, kept or not."""
+    chunks_skipped: int = 0
+    """Chunks passed over unread: their indexes showed only channels whose payloads are not wanted."""
     summary_channels: bool = False
     """Schemas and channels were read from an intact summary: every channel is known before the data."""
 
@@ -483,7 +485,9 @@ def _skippable(content: McapContent, collector: _Collector, indexes: list[tuple[
     return bool(firsts) and min(firsts) == 0
 
 
-def _skip_chunk(src: FileSource, body: int, content: McapContent, collector: _Collector, indexes: list[tuple[int, bytes]]) -> None:
+def _skip_chunk(
+    src: FileSource, body: int, content: McapContent, collector: _Collector, indexes: list[tuple[int, bytes]]
+) -> None:
     """Count the messages of a skipped chunk from its indexes; its header's time span widens the log range."""
     count = 0
     for cid, rec in indexes:
@@ -491,6 +495,7 @@ def _skip_chunk(src: FileSource, body: int, content: McapContent, collector: _Co
         collector.skip(cid, n // 16)
         count += n // 16
     start, end, usize = struct.unpack_from("<QQQ", src.read(body, 24), 0)
+    content.chunks_skipped += 1
     if count:
         content.note_log(int(start), int(end))
         collector.count += count

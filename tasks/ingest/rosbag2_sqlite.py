@@ -62,9 +62,7 @@ def _topic_tables(con: sqlite3.Connection, db: Path) -> dict[int, RawTopic]:
     return topics
 
 
-def _query_rows(
-    con: sqlite3.Connection, topics: dict[int, RawTopic], keep: dict[int, Keep], rows: MessageRows
-) -> None:
+def _query_rows(con: sqlite3.Connection, keep: dict[int, Keep], rows: MessageRows) -> None:
     """Counts of every topic, and the rows of the wanted ones (SMALL: the first, then the small ones)."""
     for tid, n, lo, hi in con.execute(
         "SELECT topic_id, COUNT(*), MIN(timestamp), MAX(timestamp) FROM messages GROUP BY topic_id"
@@ -102,7 +100,7 @@ def _read_one(db: Path, recover: bool, want: Want, warnings: list[str]) -> tuple
             topics = _topic_tables(con, db)
             keep = {t: want(topic.name, topic.msgtype) for t, topic in topics.items()}
             rows = MessageRows(set(topics))
-            _query_rows(con, topics, keep, rows)
+            _query_rows(con, keep, rows)
         except _SQL_ERRORS as err:
             failure = err
     if failure is None:
@@ -156,4 +154,3 @@ def read_sqlite_files(path: Path, files: list[Path], recover: bool, want: Want =
         payloads = [p for c in chunks for p in c[2]]
         topics[name].batches.append(Batch.from_payloads(payloads, stamps))
     return RawRecording(path, "rosbag2", topics, lost_messages=lost, warnings=warnings, log_range=log_range)
-

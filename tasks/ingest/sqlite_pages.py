@@ -39,7 +39,9 @@ class MessageRows:
     def count(self, tid: int, n: int, lo: int, hi: int) -> None:
         """``n`` rows of topic ``tid`` with timestamps in [lo, hi] ns."""
         self.counts[tid] = self.counts.get(tid, 0) + n
-        self.log_range = (lo, hi) if self.log_range is None else (min(self.log_range[0], lo), max(self.log_range[1], hi))
+        self.log_range = (
+            (lo, hi) if self.log_range is None else (min(self.log_range[0], lo), max(self.log_range[1], hi))
+        )
 
     def add(self, rid: int, tid: int, stamp_ns: int, data: bytes) -> None:
         """A kept row."""
@@ -96,16 +98,27 @@ def _int(buf: bytes, pos: int, serial: int) -> int:
     return int.from_bytes(buf[pos : pos + n], "big", signed=True)
 
 
+@dataclass
+class _Leaves:
+    """What reading the cells of one file needs: the file, its page geometry and what to keep."""
+
+    src: FileSource
+    page: int
+    usable: int
+    topic_ids: set[int]
+    keep: dict[int, Keep]
+    first_small: set[int] = field(default_factory=set)
+
+
 def scan_message_rows(db: Path, topic_ids: set[int], keep: dict[int, Keep]) -> MessageRows:
     """Every intact row of the messages table in the leaf pages of ``db``, payloads kept as ``keep`` says."""
     rows = MessageRows(topic_ids)
     seen: set[int] = set()
     kept: dict[int, tuple[int, int, bytes]] = {}
-    first_small: set[int] = set()
     with FileSource(db) as src:
         head = src.read(0, 100)
         page = _page_size(head)
-        usable = page - head[20]
+        leaves = _Leaves(src, page, page - head[20], topic_ids, keep)
         pages = src.size // page
         for n in range(1, pages + 1):
             buf = src.read((n - 1) * page, page)
@@ -116,7 +129,7 @@ def scan_message_rows(db: Path, topic_ids: set[int], keep: dict[int, Keep]) -> M
             for c in range(cells):
                 try:
                     (off,) = struct.unpack_from(">H", buf, hdr + 8 + 2 * c)
-                    row = _cell(src, buf, off, usable, page, topic_ids, keep, first_small)
+                    row = _cell(leaves, buf, off)
                 except (IndexError, struct.error, KeyError):
                     continue
                 if row is None or row[0] in seen:
@@ -135,20 +148,12 @@ def scan_message_rows(db: Path, topic_ids: set[int], keep: dict[int, Keep]) -> M
     return rows
 
 
-def _cell(
-    src: FileSource,
-    buf: bytes,
-    off: int,
-    usable: int,
-    page: int,
-    topic_ids: set[int],
-    keep: dict[int, Keep],
-    first_small: set[int],
-) -> tuple[int, int, int, bytes | None] | None:
+def _cell(leaves: _Leaves, buf: bytes, off: int) -> tuple[int, int, int, bytes | None] | None:
     """(rowid, topic id, timestamp, payload or None when not kept) of a messages row, None for other rows and
     rows whose payload is cut."""
     size, p = _varint(buf, off)
     rid, p = _varint(buf, p)
+    usable = leaves.usable
     x = usable - 35
     if size <= x:
         local = size
@@ -158,7 +163,7 @@ def _cell(
         local = k if k <= x else m
     payload = buf[p : p + local]
     hsize, q = _varint(payload, 0)
-    serials = []
+    serials: list[int] = []
     while q < hsize and len(serials) < 5:
         st, q = _varint(payload, q)
         serials.append(st)
@@ -172,26 +177,23 @@ def _cell(
     stamp = _int(payload, pos, serials[2])
     pos += _INT_SIZES[serials[2]]
     blob_len = (serials[3] - 12) // 2
-    if tid not in topic_ids or pos + blob_len != size:
+    if tid not in leaves.topic_ids or pos + blob_len != size:
         return None
-    k_ = keep.get(tid, Keep.ALL)
-    small_ok = k_ is Keep.SMALL and (blob_len <= SMALL_PAYLOAD_BYTES or tid not in first_small)
+    k_ = leaves.keep.get(tid, Keep.ALL)
+    small_ok = k_ is Keep.SMALL and (blob_len <= SMALL_PAYLOAD_BYTES or tid not in leaves.first_small)
     if k_ is Keep.NONE or (k_ is Keep.SMALL and not small_ok):
         return rid, tid, stamp, None
-    if local == size:
-        data = bytes(payload[pos:])
-    else:
-        data = _overflow(src, buf, p + local, payload, size, usable, page)
-        if data is None:
-            return None
-        data = data[pos:]
+    whole = bytes(payload) if local == size else _overflow(leaves, buf, p + local, payload, size)
+    if whole is None:
+        return None
     if k_ is Keep.SMALL:
-        first_small.add(tid)
-    return rid, tid, stamp, data
+        leaves.first_small.add(tid)
+    return rid, tid, stamp, whole[pos:]
 
 
-def _overflow(src: FileSource, buf: bytes, at: int, local: bytes, size: int, usable: int, page: int) -> bytes | None:
+def _overflow(leaves: _Leaves, buf: bytes, at: int, local: bytes, size: int) -> bytes | None:
     """The whole payload: the local part then the overflow chain (None when the chain leaves the file)."""
+    src, page, usable = leaves.src, leaves.page, leaves.usable
     (nxt,) = struct.unpack_from(">I", buf, at)
     parts = [local]
     have = len(local)

@@ -15,7 +15,7 @@ import numpy as np
 
 from schemas.descriptor import Descriptor, Grasp, ObjectRef, Primitive
 from tasks.arrays import Points
-from tasks.errors import FitError, GraspError
+from tasks.errors import FitError, GraspError, bounded
 from tasks.learn.boundaries import refine_boundaries
 from tasks.learn.chain import (
     HAND_ONLY,
@@ -85,7 +85,7 @@ def learn_chain(rec: RecordingData, params: LearnParams, rng: np.random.Generato
     spans = segment_spans(prep, params, rng)
     fits = [fit_span(prep, a, b, params) for a, b in spans]
     if all(f.kind == "still" for f in fits):
-        names = ", ".join(tr.name for tr in prep.tracks)
+        names = bounded([tr.name for tr in prep.tracks])
         msg = f"every marker is still ({names}): no motion to learn"
         raise FitError(msg, None, (spans[0][0], spans[-1][1]))
     if params.classifier == "bic":

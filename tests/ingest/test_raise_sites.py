@@ -16,9 +16,9 @@ import yaml
 from tasks.errors import RecordingError, TruncatedRecordingError
 from tasks.ingest.api import ingest_recording
 from tasks.ingest.containers import read_recording
-from tasks.ingest.raw import RawTopic
 from tasks.ingest.extract import Extracted, extract_topic
 from tasks.ingest.mcap_stream import MAGIC, Batch
+from tasks.ingest.raw import RawTopic
 from tasks.store import Store
 
 # -- MCAP records by hand (https://mcap.dev/spec) -------------------------------------------------------
