@@ -528,7 +528,7 @@ def _read_records(src: FileSource, path: str, recover: bool, content: McapConten
         if body + length > size:
             if op == OP_CHUNK:
                 lost = _salvage_chunk(src, pos, collector) if recover else 0
-                what = f"the chunk at byte {pos} is cut off at byte {size}"
+                what = f"inside the chunk that starts at byte {pos}"
                 return damaged(TruncatedRecordingError(path, size, what), size, lost, pos)
             lost = 1 if op == OP_MESSAGE else 0
             return damaged(TruncatedRecordingError(path, pos, f"record of {length} bytes cut off"), pos, lost)

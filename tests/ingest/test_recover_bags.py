@@ -244,3 +244,31 @@ def test_cli_recovers_a_cut_bag(tmp_path: Path) -> None:
     )
     assert done.returncode == 0, done.stderr
     assert "recovered" in done.stderr and "lost about" in done.stderr
+
+
+def test_a_cut_mcap_chunk_loss_is_a_lower_bound_from_its_header(tmp_path: Path) -> None:
+    """MCAP has no chunk count up front: the cut chunk's size in its header bounds the loss (within 10 % when
+    the cut falls in the last chunk), and the warning names the byte where the file ends."""
+    from mcap.writer import CompressionType, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    path = tmp_path / "one.mcap"
+    with path.open("wb") as fh:
+        w = Writer(fh, chunk_size=1 << 24, compression=CompressionType.NONE)
+        w.start(profile="ros2", library="test")
+        sid = w.register_schema(TYPE, "ros2msg", store.generate_msgdef(TYPE, ros_version=2)[0].encode())
+        chans = {f"/mocap/m{k}": w.register_channel(f"/mocap/m{k}", "cdr", sid) for k in range(2)}
+        for topic, stamp, data in _messages(ros1=False):
+            w.add_message(chans[topic], stamp, data, stamp)
+        w.finish()
+    full = path.read_bytes()
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(full[: len(full) // 2])
+    store_ = Store(tmp_path / "store")
+    result = ingest_recording(cut, store_, recover=True)
+    lost = N - _kept_prefix(store_, result.recording_id)
+    assert lost > 0 and abs(result.lost_messages - lost) <= 0.1 * lost
+    (warning,) = [w for w in result.warnings if "recovered" in w]
+    assert f"truncated at byte {len(full) // 2} (inside the chunk that starts at byte" in warning
+    assert f"lost at least {result.lost_messages} (a lower bound" in warning
