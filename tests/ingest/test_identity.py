@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 import json
-import re
 import os
+import re
 from pathlib import Path
 
 import numpy as np
@@ -86,7 +86,7 @@ def test_a_dense_or_changing_cloud_is_not_a_marker_set(points: list[int], why: s
     assert re.search(why, line) and "ignored" in line and len(line) < 300
     cloud_map = tmp_path / "m.yaml"
     cloud_map.write_text("markers: [/velodyne_points]\n")
-    with pytest.raises(TopicMapError, match="is a .*not a marker set"):
+    with pytest.raises(TopicMapError, match=r"is a .*not a marker set"):
         ingest_recording(rec, store, topics=cloud_map)
     as_model = tmp_path / "o.yaml"
     as_model.write_text("object_model: /velodyne_points\n")
@@ -108,13 +108,13 @@ def test_every_error_line_is_short(tmp_path: Path) -> None:
     assert "\n" not in str(err) and len(str(err)) < 600
     fifo = tmp_path / "pipe.mcap"
     os.mkfifo(fifo)
-    with pytest.raises(RecordingError, match="pipe.mcap: a FIFO .named pipe., not a recording"):
+    with pytest.raises(RecordingError, match=r"pipe\.mcap: a FIFO .named pipe., not a recording"):
         ingest_recording(fifo, Store(tmp_path / "store"))
     loop = tmp_path / "loop.bag"
     loop.symlink_to(loop)
-    with pytest.raises(RecordingError, match="loop.bag: a symbolic link loop"):
+    with pytest.raises(RecordingError, match=r"loop\.bag: a symbolic link loop"):
         ingest_recording(loop, Store(tmp_path / "store"))
     dangling = tmp_path / "gone.bag"
     dangling.symlink_to(tmp_path / "nowhere.bag")
-    with pytest.raises(RecordingError, match="gone.bag: a dangling symbolic link"):
+    with pytest.raises(RecordingError, match=r"gone\.bag: a dangling symbolic link"):
         ingest_recording(dangling, Store(tmp_path / "store"))
