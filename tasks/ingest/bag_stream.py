@@ -17,12 +17,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import numpy.typing as npt
 
 from tasks.errors import RecordingError, TruncatedRecordingError
 from tasks.ingest.mcap_stream import Batch
 from tasks.ingest.selection import SMALL_PAYLOAD_BYTES, Keep, Want, keep_all
 from tasks.ingest.source import WINDOW_BYTES as WINDOW
 from tasks.ingest.source import FileSource
+
+IntArray = npt.NDArray[np.int64]
 
 OP_MSG_DATA, OP_BAG_HEADER, OP_INDEX_DATA, OP_CHUNK, OP_CHUNK_INFO, OP_CONNECTION = 0x02, 0x03, 0x04, 0x05, 0x06, 0x07
 _U32 = struct.Struct("<I")
@@ -227,10 +230,11 @@ def _op(hdr: dict[bytes, bytes], pos: int) -> int:
     return op_raw[0]
 
 
-def _chunk_index(src: FileSource, pos: int) -> tuple[int, list[tuple[int, int, int, int]]]:
+def _chunk_index(src: FileSource, pos: int) -> tuple[int, list[tuple[int, int, int, int]], list[IntArray]]:
     """The IndexData records after a chunk ending at ``pos``: (where they end, [(connection, count, first
-    log time ns, last log time ns)])."""
+    log time ns, last log time ns)], the offsets of each connection's records in the uncompressed chunk)."""
     out: list[tuple[int, int, int, int]] = []
+    offsets: list[IntArray] = []
     while True:
         got = _record(src, pos)
         if got is None:
@@ -246,14 +250,56 @@ def _chunk_index(src: FileSource, pos: int) -> tuple[int, list[tuple[int, int, i
         times = entries[:, 0] * 1_000_000_000 + entries[:, 1]
         lo, hi = (int(times.min()), int(times.max())) if count else (0, 0)
         out.append((int(conn), int(count), lo, hi))
+        offsets.append(entries[:, 2])
         pos = dend
-    return pos, out
+    return pos, out, offsets
 
 
 def _skippable(content: BagContent, index: list[tuple[int, int, int, int]]) -> bool:
     """True when the chunk's index records show only connections already defined (a connection record sits in
     the chunk of its first message) whose payloads are not wanted."""
     return bool(index) and all(c in content.connections and content.keep(c) is Keep.NONE for c, *_ in index)
+
+
+WANTED_SHARE = 0.25
+"""Share of an uncompressed chunk's bytes below which only its wanted records are read (one read each) instead
+of the whole chunk: a disk read costs about as much as copying a few hundred kB."""
+
+
+def _count_unread(content: BagContent, index: list[tuple[int, int, int, int]], *, skip_all: bool) -> None:
+    """Count the messages the index lists for connections whose payloads are not wanted (all, with ``skip_all``)."""
+    for conn, count, lo, hi in index:
+        if skip_all or content.keep(conn) is Keep.NONE:
+            content.counts[conn] = content.counts.get(conn, 0) + count
+            content.messages_read += count
+            if count:
+                content.note_log(lo, hi)
+
+
+def _read_wanted_records(
+    src: FileSource, start: int, size: int, content: BagContent, *, index: list[tuple[int, int, int, int]],
+    offsets: list[IntArray],
+) -> bool:  # fmt: skip
+    """Read only the wanted message records of an uncompressed chunk (data at ``start``, ``size`` bytes), located
+    by its index records, when they are a small share of it. False (nothing read): read the whole chunk."""
+    if not index or not all(c in content.connections for c, *_ in index):
+        return False
+    every = np.sort(np.concatenate(offsets))
+    if len(every) == 0 or int(every[-1]) >= size or (len(every) > 1 and not bool(np.all(np.diff(every) > 0))):
+        return False
+    ends = np.append(every[1:], size)  # a record ends where the next begins (or the chunk does)
+    size_of = dict(zip(every.tolist(), (ends - every).tolist(), strict=True))
+    wanted = sorted(o for (c, *_), offs in zip(index, offsets, strict=True) if content.keep(c) is not Keep.NONE
+                    for o in offs.tolist())  # fmt: skip
+    if sum(size_of[o] for o in wanted) > WANTED_SHARE * size:
+        return False
+    records = b"".join(src.read(start + o, size_of[o]) for o in wanted)
+    before = content.messages_read
+    if _walk_chunk(records, content) != len(records) or content.messages_read - before != len(wanted):
+        msg = f"chunk at byte {start}: its index records do not point at its messages"
+        raise _BadRecordError(msg)
+    _count_unread(content, index, skip_all=False)
+    return True
 
 
 def _decompress(compression: str, raw: bytes, pos: int) -> bytes:
@@ -307,15 +353,16 @@ def _walk_top(src: FileSource, start: int, content: BagContent) -> int:
         elif op == OP_CHUNK:
             compression = hdr.get(b"compression", b"none").decode(errors="replace")
             (size,) = _U32.unpack(hdr[b"size"])
-            nxt, index = _chunk_index(src, dend)
+            nxt, index, offsets = _chunk_index(src, dend)
             before = content.messages_read
             counts_before = dict(content.counts)
             if _skippable(content, index):
-                for conn, count, lo, hi in index:
-                    content.counts[conn] = content.counts.get(conn, 0) + count
-                    content.messages_read += count
-                    content.note_log(lo, hi)
-            else:
+                _count_unread(content, index, skip_all=True)
+            elif (
+                compression != "none"
+                or size != dend - dstart
+                or not _read_wanted_records(src, dstart, size, content, index=index, offsets=offsets)
+            ):
                 inner = _decompress(compression, src.read(dstart, dend - dstart), pos)
                 if len(inner) != size:
                     raise _BadRecordError(f"chunk at byte {pos} decompressed to {len(inner)} bytes, header says {size}")

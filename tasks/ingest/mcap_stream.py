@@ -502,6 +502,62 @@ def _skip_chunk(
         collector.record_bytes += int(usize)
 
 
+WANTED_SHARE = 0.25
+"""Share of an uncompressed chunk's bytes below which only its wanted records are read (one read each) instead
+of the whole chunk: a disk read costs about as much as copying a few hundred kB."""
+
+
+def _read_wanted_records(
+    src: FileSource,
+    body: int,
+    length: int,
+    content: McapContent,
+    *,
+    collector: _Collector,
+    indexes: list[tuple[int, bytes]],
+) -> bool:
+    """Read only the wanted message records of an uncompressed chunk, located by its message indexes, when they
+    are a small share of it (a camera chunk with a few markers). False (nothing read): read the whole chunk."""
+    if not indexes or not all(cid in content.channels for cid, _ in indexes):
+        return False
+    try:
+        _usize, _crc, compression, rstart, rlen = _chunk_header(src.read(body, min(length, 4096)))
+    except (ValueError, struct.error):
+        return False
+    if compression != "" or rstart + rlen != length:
+        return False
+    located = []
+    for cid, rec in indexes:
+        (n,) = struct.unpack_from("<I", rec, 2)
+        if n % 16 or 6 + n > len(rec):
+            return False
+        pairs = np.frombuffer(rec, dtype="<u8", count=n // 8, offset=6).reshape(-1, 2)
+        located.append((cid, pairs[:, 0].astype(np.int64), pairs[:, 1].astype(np.int64)))
+    offsets = np.sort(np.concatenate([o for _c, _l, o in located]))
+    if len(offsets) == 0 or int(offsets[-1]) >= rlen or (len(offsets) > 1 and not bool(np.all(np.diff(offsets) > 0))):
+        return False
+    ends = np.append(offsets[1:], rlen)  # a record ends where the next begins (or the chunk does)
+    size_of = dict(zip(offsets.tolist(), (ends - offsets).tolist(), strict=True))
+    wanted = [o for cid, _log, offs in located if collector.keep(cid) is not Keep.NONE for o in offs.tolist()]
+    if sum(size_of[o] for o in wanted) > WANTED_SHARE * rlen:
+        return False
+    start = body + rstart
+    records = b"".join(src.read(start + o, size_of[o]) for o in sorted(wanted))
+    msgs: tuple[list[int], list[int]] = ([], [])
+    try:
+        _walk(records, 0, len(records), content, msgs)
+    except _CorruptError:
+        return False
+    if len(msgs[0]) != len(wanted):
+        return False
+    for cid, log, _offs in located:
+        if collector.keep(cid) is Keep.NONE and len(log):
+            collector.skip(cid, len(log))
+            content.note_log(int(log.min()), int(log.max()))
+    collector.add_walked(records, msgs[0], msgs[1])
+    return True
+
+
 def _read_records(src: FileSource, path: str, recover: bool, content: McapContent, collector: _Collector) -> None:
     """The record loop of ``read_mcap``; damage with ``recover`` is noted in ``content``."""
     size = src.size
@@ -537,7 +593,7 @@ def _read_records(src: FileSource, path: str, recover: bool, content: McapConten
                 nxt, indexes = _message_indexes(src, body + length)
                 if _skippable(content, collector, indexes):
                     _skip_chunk(src, body, content, collector, indexes)
-                else:
+                elif not _read_wanted_records(src, body, length, content, collector=collector, indexes=indexes):
                     _read_chunk(memoryview(src.read(body, length)), content, collector, indexes)
                 pos = nxt
                 continue

@@ -7,8 +7,9 @@ from pathlib import Path
 from types import TracebackType
 from typing import BinaryIO
 
-WINDOW_BYTES = 1 << 20
-"""Bytes read at once for small records (schemas, channels, index records): one disk read serves many."""
+WINDOW_BYTES = 64 * 1024
+"""Bytes read at once for small records (schemas, channels, index records, a few markers between camera
+frames): one read serves the records that follow, and a scattered read costs little more than its record."""
 
 
 class FileSource:
