@@ -129,3 +129,43 @@ def test_bag_and_sqlite_keep_only_wanted_payloads(fmt: str, tmp_path: Path) -> N
     raw = read_recording(path, want=wanted(None))
     assert raw.topics["/lidar/points"].count == 5 and raw.topics["/lidar/points"].kept == 1
     assert raw.topics["/mocap/m0"].kept == 50
+
+
+def test_camera_bag_reads_only_the_marker_records(tmp_path: Path) -> None:
+    """A ROS 1 bag of 1 MB frames and markers in uncompressed 4 MB chunks (the markers read record by record):
+    the markers come out exact, the frames are counted and never kept."""
+    from rosbags.rosbag1 import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    from tasks.ingest.bag_stream import read_bag
+
+    store = get_typestore(Stores.ROS1_NOETIC)
+    t = store.types
+    point, image = "geometry_msgs/msg/PointStamped", "sensor_msgs/msg/Image"
+    path = tmp_path / "cams.bag"
+    writer = Writer(path)
+    writer.chunk_threshold = 4 << 20
+    xyz = np.random.default_rng(4).normal(size=(48, 3))
+    with writer:
+        cam = writer.add_connection("/camera/image_raw", image, typestore=store)
+        mark = writer.add_connection("/mocap/m0", point, typestore=store)
+        for i in range(48):
+            stamp = T0 + i * 8_333_333
+            sec, nsec = divmod(stamp, 1_000_000_000)
+            header = t["std_msgs/msg/Header"](seq=i, stamp=t["builtin_interfaces/msg/Time"](sec=sec, nanosec=nsec),
+                                              frame_id="w")  # fmt: skip
+            if i % 4 == 0:
+                msg = t[image](header=header, height=1024, width=1024, encoding="mono8", is_bigendian=0, step=1024,
+                               data=np.zeros(FRAME, dtype=np.uint8))  # fmt: skip
+                writer.write(cam, stamp, bytes(store.serialize_ros1(msg, image)))
+            p = t["geometry_msgs/msg/Point"](x=xyz[i, 0], y=xyz[i, 1], z=xyz[i, 2])
+            writer.write(mark, stamp + 1, bytes(store.serialize_ros1(t[point](header=header, point=p), point)))
+    content = read_bag(path, want=wanted(None))
+    assert {c.topic: content.counts[i] for i, c in content.connections.items()} == {
+        "/camera/image_raw": 12,
+        "/mocap/m0": 48,
+    }
+    assert set(content.payloads) == {mark.id}
+    store_ = Store(tmp_path / "store")
+    m = load_recording(store_, ingest_recording(path, store_).recording_id).markers["/mocap/m0"]
+    np.testing.assert_array_equal(m.points, xyz)
