@@ -77,6 +77,13 @@ print(len(rows))
 """
 
 
+ID_ONLY = (
+    "import sys; from pathlib import Path; from tasks.ingest.api import recording_id_of; "
+    "print(recording_id_of(Path(sys.argv[1])))"
+)
+"""What RECORDING.md's content id costs by itself: pbd hashes every byte before it reads the recording."""
+
+
 # -- recordings ------------------------------------------------------------------------------------
 def _templates(ros1: bool) -> tuple[bytes, bytes]:
     """Serialised PointStamped and 1 MB mono8 Image (rosbags), to be patched with stamps and values."""
@@ -248,6 +255,8 @@ def run_case(name: str, path: Path, topics: tuple[str, ...], repeats: int, tmp: 
     wall, rss, out = measure([str(PY), str(tmp / "anyreader.py"), str(path), ",".join(topics)], repeats)
     rows.append(("rosbags AnyReader + deserialize", wall, rss, out))
     counts = {r[3] for r in rows}
+    wall, rss, _ = measure([str(PY), "-c", ID_ONLY, str(path)], repeats)
+    rows.append(("of pbd: the id alone (SHA-256 of bytes)", wall, rss, ""))
     if len(counts) != 1:
         sys.exit(f"{name}: tools disagree on the marker rows: {[(r[0], r[3]) for r in rows]}")
     print(f"\n{name}: {size / 1e9:.2f} GB, {counts.pop()} marker rows")
@@ -263,7 +272,7 @@ def run_case(name: str, path: Path, topics: tuple[str, ...], repeats: int, tmp: 
 def verdicts(name: str, rows: list[tuple[str, float, float]], marker_only: bool) -> None:
     """One line: the targets of issue 27 for this recording."""
     ours = rows[0]
-    peers = {t.split()[0]: w for t, w, _ in rows[1:]}
+    peers = {t.split()[0]: w for t, w, _ in rows[1:] if not t.startswith("of pbd")}
     rss_ok = ours[2] < RSS_TARGET_MB
     if marker_only:
         ratio = peers["rosbags"] / ours[1]

@@ -78,10 +78,12 @@ def recording_id_of(source: Path) -> str:
         files = sorted((p for p in source.rglob("*") if p.is_file()), key=lambda p: p.relative_to(source).as_posix())
     else:
         files = [source]
+    buf = bytearray(1 << 20)
+    view = memoryview(buf)
     for f in files:
-        with f.open("rb") as fh:
-            while block := fh.read(1 << 20):
-                h.update(block)
+        with f.open("rb", buffering=0) as fh:
+            while n := fh.readinto(buf):
+                h.update(view[:n])
     return h.hexdigest()[:16]
 
 

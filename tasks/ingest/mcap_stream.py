@@ -245,8 +245,8 @@ class _Collector:
         self.record_bytes += int(rec_len.sum()) + 9 * len(rec_off)
         if len(log):
             self.content.note_log(int(log.min()), int(log.max()))
-        present = np.flatnonzero(np.bincount(chan)).tolist()
         counts = np.bincount(chan)
+        present = np.flatnonzero(counts).tolist()
         kinds = {cid: self.keep(cid) for cid in present}
         for cid in present:
             self.skip(cid, int(counts[cid]))
@@ -275,7 +275,7 @@ class _Collector:
                 if len(pay_len) > 1:
                     np.cumsum(pay_len[:-1], out=pay_off[1:])
                 chan, log = chan[mask], log[mask]
-        self._first_kept.update(np.unique(chan).tolist())
+        self._first_kept.update(cid for cid, k in kinds.items() if k is Keep.SMALL)
         self.parts.append((buf, chan, log, pay_off, pay_len))
 
     def finish(self) -> None:
