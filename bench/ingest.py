@@ -297,9 +297,7 @@ def verdicts(name: str, rows: list[tuple[str, float, float, float]], marker_only
 
     if marker_only:
         loop = ratio("rosbags")
-        print(
-            f"{name}: peak RSS {ours[3]:.0f} MB (< {RSS_TARGET_MB}: {rss_ok}); rosbags loop / pbd: {loop} (target >= 10x)"
-        )
+        print(f"{name}: peak RSS {ours[3]:.0f} MB (< {RSS_TARGET_MB}: {rss_ok}); rosbags loop / pbd: {loop} (>= 10x)")
     else:
         mcap = f"mcap reader / pbd: {ratio('mcap')} (target >= 1x); " if "mcap" in peers else ""
         print(
