@@ -81,9 +81,13 @@ def recording_id_of(source: Path) -> str:
     buf = bytearray(1 << 20)
     view = memoryview(buf)
     for f in files:
-        with f.open("rb", buffering=0) as fh:
-            while n := fh.readinto(buf):
-                h.update(view[:n])
+        try:
+            with f.open("rb", buffering=0) as fh:
+                while n := fh.readinto(buf):
+                    h.update(view[:n])
+        except OSError as err:
+            msg = f"cannot read it ({err.strerror})"
+            raise RecordingError(f, msg) from err
     return h.hexdigest()[:16]
 
 

@@ -201,12 +201,18 @@ def _storage_files(path: Path, rel: list[Any]) -> list[Path]:
             msg = f"storage path {shown!r} leaves the bag folder (absolute and '..' paths are refused)"
             raise RecordingError(meta_path, msg)
         f = path / pure
-        if not f.is_file() and (path / pure.name).is_file():
-            f = path / pure.name  # old metadata lists paths with the folder name
-        if not f.is_file():
+        try:
+            if not f.is_file() and (path / pure.name).is_file():
+                f = path / pure.name  # old metadata lists paths with the folder name
+            missing = not f.is_file()
+            outside = not missing and not f.resolve().is_relative_to(root)
+        except (OSError, RuntimeError) as err:  # a name too long, a link loop
+            msg = f"storage file {shown} listed in metadata.yaml cannot be opened ({err})"
+            raise RecordingError(meta_path, msg) from err
+        if missing:
             msg = f"storage file {shown} listed in metadata.yaml is missing"
             raise RecordingError(path, msg)
-        if not f.resolve().is_relative_to(root):
+        if outside:
             msg = f"storage file {shown} is a link leading out of the bag folder (refused)"
             raise RecordingError(meta_path, msg)
         files.append(f)

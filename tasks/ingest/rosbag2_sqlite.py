@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import sqlite3
+import struct
 import tempfile
 import urllib.parse
 from collections.abc import Iterator
@@ -108,16 +109,17 @@ def _read_one(db: Path, recover: bool, want: Want, warnings: list[str]) -> tuple
     msg = f"corrupt sqlite3 storage ({str(failure)[:100]})"
     if not recover:
         raise RecordingError(db, msg) from failure
-    with tempfile.TemporaryDirectory(prefix="pbd-sqlite-") as tmp:
-        head = Path(tmp) / "head.db3"
-        patched_prefix(db, head, HEADER_PAGES_BYTES)
-        with _sqlite_open(head) as con:
-            try:
+    lost_too = f"{msg}; its topics table is lost too, nothing to recover"
+    try:
+        with tempfile.TemporaryDirectory(prefix="pbd-sqlite-") as tmp:
+            head = Path(tmp) / "head.db3"
+            patched_prefix(db, head, HEADER_PAGES_BYTES)
+            with _sqlite_open(head) as con:
                 topics = _topic_tables(con, db)
-            except _SQL_ERRORS as err:
-                raise RecordingError(db, f"{msg}; its topics table is lost too, nothing to recover") from err
-    keep = {t: want(topic.name, topic.msgtype) for t, topic in topics.items()}
-    rows = scan_message_rows(db, set(topics), keep)
+        keep = {t: want(topic.name, topic.msgtype) for t, topic in topics.items()}
+        rows = scan_message_rows(db, set(topics), keep)
+    except (*_SQL_ERRORS, OSError, IndexError, struct.error) as err:
+        raise RecordingError(db, lost_too) from err
     lost = f", about {rows.lost_estimate} lost (from the page count in its header)" if rows.lost_estimate else ""
     warnings.append(f"{db}: {msg}; read it page by page: recovered {rows.total} intact messages{lost}")
     return topics, rows

@@ -111,3 +111,25 @@ def test_recover_estimates_the_loss_of_a_lone_truncated_db3(bag: Path, tmp_path:
     result = ingest_recording(db, store, recover=True)
     kept = sum(len(m.stamps_ns) for m in load_recording(store, result.recording_id).markers.values())
     assert abs(result.lost_messages - (2 * N - kept)) <= 0.1 * (2 * N - kept)
+
+
+def test_malformed_metadata_and_unopenable_storage_are_one_line(bag: Path, tmp_path: Path) -> None:
+    folder, _ = _copy(bag, tmp_path / "odd")
+    meta = folder / "metadata.yaml"
+    doc = yaml.safe_load(meta.read_text())
+    doc["rosbag2_bagfile_information"]["topics_with_message_count"] = [7]
+    meta.write_text(yaml.safe_dump(doc))
+    with pytest.raises(RecordingError, match=r"metadata.yaml: malformed metadata.yaml \(AttributeError"):
+        ingest_recording(folder, Store(tmp_path / "store"))
+    folder, _ = _copy(bag, tmp_path / "long")
+    _edit_metadata(folder, ["x" * 5000 + ".db3"])
+    with pytest.raises(RecordingError, match=r"storage file x{77}\.\.\. listed in metadata.yaml cannot be opened"):
+        ingest_recording(folder, Store(tmp_path / "store"))
+
+
+def test_recover_of_a_file_without_its_topics_table_is_one_line(bag: Path, tmp_path: Path) -> None:
+    data = next(bag.glob("*.db3")).read_bytes()
+    db = tmp_path / "stub.db3"
+    db.write_bytes(data[:60])  # the sqlite header, cut before the page size
+    with pytest.raises(RecordingError, match=r"stub\.db3: corrupt sqlite3 storage .*nothing to recover"):
+        ingest_recording(db, Store(tmp_path / "store"), recover=True)

@@ -169,3 +169,47 @@ def test_camera_bag_reads_only_the_marker_records(tmp_path: Path) -> None:
     store_ = Store(tmp_path / "store")
     m = load_recording(store_, ingest_recording(path, store_).recording_id).markers["/mocap/m0"]
     np.testing.assert_array_equal(m.points, xyz)
+
+
+def test_index_records_that_miss_their_messages_are_a_corrupt_bag(tmp_path: Path) -> None:
+    """The markers of a camera chunk are read where its index records say: a shifted offset is one line."""
+    from rosbags.rosbag1 import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    from tasks.errors import RecordingError
+
+    store = get_typestore(Stores.ROS1_NOETIC)
+    t = store.types
+    path = tmp_path / "cams.bag"
+    writer = Writer(path)
+    writer.chunk_threshold = 4 << 20
+    with writer:
+        cam = writer.add_connection("/camera/image_raw", "sensor_msgs/msg/Image", typestore=store)
+        mark = writer.add_connection("/mocap/m0", "geometry_msgs/msg/PointStamped", typestore=store)
+        for i in range(8):
+            header = t["std_msgs/msg/Header"](seq=i, stamp=t["builtin_interfaces/msg/Time"](sec=i + 1, nanosec=0),
+                                              frame_id="w")  # fmt: skip
+            pixels = np.zeros(FRAME, dtype=np.uint8)
+            image = t["sensor_msgs/msg/Image"](header=header, height=1024, width=1024, encoding="mono8",
+                                               is_bigendian=0, step=1024, data=pixels)  # fmt: skip
+            writer.write(cam, T0 + i, bytes(store.serialize_ros1(image, "sensor_msgs/msg/Image")))
+            p = t["geometry_msgs/msg/PointStamped"](
+                header=header, point=t["geometry_msgs/msg/Point"](x=1.0, y=2.0, z=3.0)
+            )
+            writer.write(mark, T0 + i, bytes(store.serialize_ros1(p, "geometry_msgs/msg/PointStamped")))
+    data = bytearray(path.read_bytes())
+    pos, found = len(b"#ROSBAG V2.0\n"), []
+    while pos < len(data):  # the IndexData records (op 4) of the marker connection
+        hlen = int.from_bytes(data[pos : pos + 4], "little")
+        header = bytes(data[pos + 4 : pos + 4 + hlen])
+        dstart = pos + 8 + hlen
+        if b"op=\x04" in header and b"conn=" + mark.id.to_bytes(4, "little") in header:
+            found.append(dstart)
+        pos = dstart + int.from_bytes(data[pos + 4 + hlen : dstart], "little")
+    last = found[1]  # the second chunk's: frames and markers, its markers read where the index says
+    first = int.from_bytes(data[last + 8 : last + 12], "little")  # an entry: secs, nsecs, offset
+    data[last + 8 : last + 12] = (first + 3).to_bytes(4, "little")
+    bad = tmp_path / "bad.bag"
+    bad.write_bytes(bytes(data))
+    with pytest.raises(RecordingError, match=r"bad\.bag: corrupt bag"):
+        ingest_recording(bad, Store(tmp_path / "store"))
