@@ -20,7 +20,7 @@ import numpy as np
 import numpy.typing as npt
 
 from tasks.errors import RecordingError, TruncatedRecordingError
-from tasks.ingest.mcap_stream import Batch
+from tasks.ingest.batch import Batch
 from tasks.ingest.selection import SMALL_PAYLOAD_BYTES, Keep, Want, keep_all
 from tasks.ingest.source import WINDOW_BYTES as WINDOW
 from tasks.ingest.source import FileSource

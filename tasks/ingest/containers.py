@@ -3,7 +3,7 @@
 A ``RawRecording`` lists every topic with its type, message encoding, the message definition the recording
 carries, and its raw payloads as ``Batch``es (nothing is decoded here). Containers:
 
-- standalone MCAP: our streaming reader (``mcap_stream``), no seeking;
+- standalone MCAP: our streaming reader (``mcap_stream``), memory bounded by one chunk;
 - ROS 1 bag (plain, bz2, lz4): ``rosbags.rosbag1.Reader`` (raw bytes, definitions from connection headers),
   after checking the bag is not cut short (its index sits at the end);
 - rosbag2 folder: ``metadata.yaml`` plus sqlite3 storage (read with ``sqlite3`` directly, topics matched by
@@ -20,7 +20,8 @@ from typing import Any
 
 from tasks.errors import RecordingError, bounded
 from tasks.ingest.bag_stream import read_bag
-from tasks.ingest.mcap_stream import Batch, McapContent, read_mcap
+from tasks.ingest.batch import Batch
+from tasks.ingest.mcap_stream import McapContent, read_mcap
 from tasks.ingest.raw import RawRecording, RawTopic
 from tasks.ingest.rosbag2_sqlite import read_sqlite_files
 from tasks.ingest.selection import Want, keep_all, normalize_type

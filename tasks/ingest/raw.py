@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from tasks.ingest.mcap_stream import Batch
+from tasks.ingest.batch import Batch
 
 
 @dataclass

@@ -18,7 +18,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 from tasks.errors import RecordingError
-from tasks.ingest.mcap_stream import Batch
+from tasks.ingest.batch import Batch
 from tasks.ingest.raw import RawRecording, RawTopic
 from tasks.ingest.selection import SMALL_PAYLOAD_BYTES, Keep, Want, keep_all, normalize_type
 from tasks.ingest.sqlite_pages import HEADER_PAGES_BYTES, MessageRows, patched_prefix, scan_message_rows
