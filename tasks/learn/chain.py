@@ -25,7 +25,8 @@ from tasks.fit.rotation import RotationFit, fit_rotation
 from tasks.fit.select import KINDS, Kind, SelectParams, choose_bic, choose_eigen, model_costs
 from tasks.fit.translation import TranslationFit, fit_translation
 from tasks.learn.params import LearnParams
-from tasks.learn.prepare import MIN_SAMPLES, PreparedRecording
+from tasks.learn.prepare import MIN_SAMPLES, PreparedRecording, is_orientation_marker
+from tasks.segment.changepoint import MIN_MODEL_SAMPLES
 from tasks.segment.tracks import Track, span_indices
 
 HAND_ONLY = "only hand markers move"
@@ -57,7 +58,7 @@ def _samples(track: Track, t0: float, t1: float) -> tuple[FloatArray, Points]:
 def marker_kind(track: Track, t0: float, t1: float, undefined: float) -> Kind | None:
     """Best model of one marker's samples over [t0, t1) (s), None with too few samples."""
     i, j = span_indices(track, t0, t1)
-    if j - i < MIN_SAMPLES:
+    if j - i < MIN_MODEL_SAMPLES:
         return None
     res = span_residuals(track.moments, np.array([i]), np.array([j]))
     costs = model_costs(
@@ -489,8 +490,10 @@ def drop_small(fits: list[SegmentFit], min_motion_m: float) -> list[SegmentFit]:
 
 
 def primitive_fit_json(f: SegmentFit) -> dict[str, Any]:
-    """The ``fit`` block of a primitive: residual, eigenvalues, model scores, axis uncertainty."""
+    """The ``fit`` block of a primitive: residual, eigenvalues, model scores, axis uncertainty, and the evidence
+    used (marker positions; a rigid body's orientations too)."""
     out: dict[str, Any] = {"eigenvalues": list(f.eigenvalues), "scores": f.scores}
+    out["evidence"] = ["positions", "orientations"] if any(map(is_orientation_marker, f.markers)) else ["positions"]
     if f.kind == "rotation" and f.rotation is not None:
         rf = f.rotation
         out.update(rms_m=rf.rms_m, radii_m=list(rf.radii), n=rf.n)

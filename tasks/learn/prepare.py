@@ -102,6 +102,11 @@ def prepare(rec: RecordingData, sigma_floor_m: float, hand_pattern: str) -> Prep
         order = np.argsort(stamps, kind="stable")
         stamps = stamps[order]
         pts = pts[order]
+        stale = np.concatenate([[False], (np.diff(pts, axis=0) == 0.0).all(axis=1)])
+        if stale.any() and (~stale).sum() >= MIN_SAMPLES:
+            warnings.append(f"marker {name}: {int(stale.sum())} repeated samples dropped (a stale value re-sent)")
+            stamps = stamps[~stale]
+            pts = pts[~stale]
         t_s: FloatArray = (stamps - rec.start_ns).astype(np.float64) / 1e9
         if len(pts) < MIN_SAMPLES:
             span = (float(t_s[0]), float(t_s[-1]))

@@ -23,6 +23,12 @@ from tasks.segment.tracks import Track
 IntArray = np.ndarray
 
 
+MIN_MODEL_SAMPLES = 4
+"""Samples a line or circle needs before its residual says anything (a circle passes through any three points)."""
+FEW_SAMPLE_MODELS = [0, 3]
+"""Models (still, undefined) that score a span with fewer samples: a short span is never free."""
+
+
 @dataclass(frozen=True)
 class ChangepointParams:
     """Search settings: grid cell (s), minimum segment (s), penalty per segment (nats, None = 3 log N per
@@ -60,8 +66,10 @@ def _marker_cost(track: Track, start: IntArray, stop: IntArray, undefined: float
         sigma_model=track.sigma_m,
         undefined=undefined,
     )
-    best: FloatArray = costs.min(axis=1)
-    return np.where(res.count >= 4, best, 0.0)
+    best: FloatArray = np.where(
+        res.count >= MIN_MODEL_SAMPLES, costs.min(axis=1), costs[:, FEW_SAMPLE_MODELS].min(axis=1)
+    )
+    return np.where(res.count > 0, best, 0.0)
 
 
 def spans_cost(tracks: list[Track], t_from: FloatArray, t_to: FloatArray, undefined: float) -> FloatArray:
@@ -107,7 +115,10 @@ def search(tracks: list[Track], params: ChangepointParams) -> Segmentation:
             sigma_model=np.repeat(sig_model, len(cands)),
             undefined=params.undefined_nats,
         )
-        best_model = np.where(res.count >= 4, costs.min(axis=1), 0.0)
+        best_model = np.where(
+            res.count >= MIN_MODEL_SAMPLES, costs.min(axis=1), costs[:, FEW_SAMPLE_MODELS].min(axis=1)
+        )
+        best_model = np.where(res.count > 0, best_model, 0.0)
         out: FloatArray = best_model.reshape(n_markers, len(cands)).sum(axis=0)
         return out
 

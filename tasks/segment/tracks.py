@@ -53,7 +53,7 @@ def sample_weights(t_s: FloatArray) -> FloatArray:
 
 def make_track(name: str, t_s: FloatArray, points: Points, sigma_floor_m: float) -> Track:
     """Build a ``Track`` from finite samples sorted by time; sigma = max(high-frequency noise, floor)."""
-    hf = noise_sigma(points)
+    hf = noise_sigma(points, t_s)
     weights = sample_weights(t_s)
     return Track(name, t_s, points, prefix_moments(points, weights), max(hf, sigma_floor_m), hf, weights)
 
