@@ -4,11 +4,13 @@ A ``RawRecording`` lists every topic with its type, message encoding, the messag
 carries, and its raw payloads as ``Batch``es (nothing is decoded here). Containers:
 
 - standalone MCAP: our streaming reader (``mcap_stream``), memory bounded by one chunk;
-- ROS 1 bag (plain, bz2, lz4): ``rosbags.rosbag1.Reader`` (raw bytes, definitions from connection headers),
-  after checking the bag is not cut short (its index sits at the end);
-- rosbag2 folder: ``metadata.yaml`` plus sqlite3 storage (read with ``sqlite3`` directly, topics matched by
-  name, not by QoS) or MCAP storage (our reader); file or message compression (zstd) is undone; the counts
-  read are compared with the metadata's; a lone ``.db3`` file reads as a one-file rosbag2 without metadata.
+- ROS 1 bag (plain, bz2, lz4): our streaming reader (``bag_stream``; definitions from connection headers);
+- rosbag2 folder: ``metadata.yaml`` (storage files confined to the folder) plus sqlite3 storage
+  (``rosbag2_sqlite``: topics matched by name, not by QoS, rows queried by topic) or MCAP storage (our
+  reader); file or message compression (zstd) is undone; the counts read are compared with the metadata's; a
+  lone ``.db3`` file reads as a one-file rosbag2 without metadata.
+
+Only the payloads of the topics ``want`` asks for are kept; every topic is counted.
 """
 
 from __future__ import annotations
