@@ -15,7 +15,7 @@ from typing import Any
 from rosbags.typesys import Stores, get_types_from_idl, get_types_from_msg, get_typestore
 
 from tasks.errors import RecordingError
-from tasks.ingest.containers import RawTopic
+from tasks.ingest.raw import RawTopic
 
 _IDL_SEP = "=" * 80
 

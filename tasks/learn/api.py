@@ -18,7 +18,7 @@ import numpy as np
 from schemas.descriptor import Descriptor, Grasp, ObjectRef, Primitive
 from tasks.arrays import Points
 from tasks.code_version import code_version
-from tasks.errors import FitError, GraspError
+from tasks.errors import FitError, GraspError, bounded
 from tasks.grasp import worker_pool
 from tasks.grasp.api import plan_grasp_for_recording
 from tasks.grasp.planner import PlannerParams
@@ -102,7 +102,7 @@ def fit_segments(rec: RecordingData, spans: list[tuple[float, float]], params: L
         prep = replace(prep, hand=prep.hand | found)
     fits = [fit_span(prep, a, b, params) for a, b in spans]
     if all(f.kind == "still" for f in fits):
-        names = ", ".join(tr.name for tr in prep.tracks)
+        names = bounded([tr.name for tr in prep.tracks])
         msg = f"every marker is still ({names}): no motion to learn"
         raise FitError(msg, None, (spans[0][0], spans[-1][1]))
     if params.classifier == "bic":

@@ -18,6 +18,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from tasks.arrays import FloatArray, Points
+from tasks.errors import bounded
 from tasks.fit.geometry import perpendicular_basis, unit
 from tasks.fit.moments import span_residuals
 from tasks.fit.rigid import PartMotion, ScrewAxis, net_turn, part_motion, rss_about_axis, screw_axis
@@ -105,7 +106,7 @@ def fit_span(
     elif all_hand:
         group = moving
     else:
-        who = ", ".join(tr.name for tr in moving)
+        who = bounded([tr.name for tr in moving])
         return SegmentFit("undefined", t0, t1, still_markers=still, note=f"{HAND_ONLY} ({who})")
     group.sort(key=lambda tr: tr.name)
     pts = [_samples(tr, t0, t1)[1] for tr in group]
