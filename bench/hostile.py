@@ -6,7 +6,7 @@ read-only, no permission). A case passes when the command exits as it documents 
 2 for bad input) with every stderr line ``pbd COMMAND: ...`` of bounded length: no traceback, no internal error;
 within ``--timeout`` seconds and without the worker's peak RSS passing ``--max-rss-mb``.
 
-Each group runs in a worker process (``tasks.cli.main`` in-process, case after case); a worker that hangs is
+Each group runs in a worker process (``flows.cli.main`` in-process, case after case); a worker that hangs is
 killed and the case counted as a hang. ``--baseline DIR`` runs the same cases with the code of another checkout
 (e.g. the main branch) beside ours. Development part: seed 1; held-out part: seed 1001. Usage::
 

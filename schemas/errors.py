@@ -1,9 +1,4 @@
-"""The root of pbd's exception family and the contract's own error (``DescriptorError``).
-
-They live here, at the bottom layer, so the contracts can raise them without importing anything of ours;
-``tasks.errors`` re-exports both beside the stage errors. The CLI turns any ``PbdError`` into one line on
-stderr and exit 2.
-"""
+"""The root of pbd's exception family and the contract's own error (``tasks.errors`` adds the stages' errors)."""
 
 from __future__ import annotations
 

@@ -28,6 +28,18 @@ FAULT_MODE_ENV = "PBD_FAULT_MODE"
 FAULT_KILL_EXIT = 137
 """Exit status of a process killed by the hook: what a shell reports after ``kill -9``."""
 
+
+def _modes() -> tuple[int, int]:
+    """(file mode, folder mode) the process's umask allows (read once, at import, while one thread runs)."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return 0o666 & ~mask, 0o777 & ~mask
+
+
+FILE_MODE, DIR_MODE = _modes()
+"""Permissions of the store's files and folders: what the umask allows (temporary files start as 0600 and
+staging folders as 0700, which would make a shared store unreadable by the team)."""
+
 WRITE_STEPS = ("file.written", "file.linked")
 """Steps of ``write_bytes_atomic`` for a file that is never replaced (prefix ``file`` unless the caller names it)."""
 
@@ -88,6 +100,7 @@ def write_bytes_atomic(path: Path, data: bytes, *, overwrite: bool = False, step
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
         try:
+            os.fchmod(fd, FILE_MODE)
             with os.fdopen(fd, "wb") as fh:
                 fh.write(data)
                 fh.flush()

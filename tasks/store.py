@@ -36,12 +36,14 @@ from typing import Any
 
 from schemas.descriptor import Descriptor
 from schemas.limits import MAX_DESCRIPTOR_BYTES
-from tasks.atomic import checkpoint, fsync_dir, write_bytes_atomic, write_errors
+from tasks.atomic import DIR_MODE, FILE_MODE, checkpoint, fsync_dir, write_bytes_atomic, write_errors
 from tasks.errors import DescriptorError, StoreError
 from tasks.store_index import VersionEntry, adoptable, lists, read_index, write_index
 
 __all__ = [
     "DEFAULT_STORE",
+    "DIR_MODE",
+    "FILE_MODE",
     "PutResult",
     "Store",
     "VersionEntry",
@@ -163,6 +165,7 @@ class Store:
                 fcntl.flock(lock.fileno(), fcntl.LOCK_SH)
             with write_errors(self.tmp_dir):
                 path = Path(tempfile.mkdtemp(dir=self.tmp_dir, prefix=f"{prefix}-"))
+                path.chmod(DIR_MODE)  # mkdtemp's 0700 would make a published folder unreadable by the team
             try:
                 with write_errors(path, doing=""):
                     checkpoint("stage.created", path)

@@ -5,7 +5,7 @@ object model in a store, an MCAP and a ROS 1 bag recording, PLY / XYZ / npy mode
 cases from them with a ``numpy`` generator: byte flips, truncations, random bytes, non-finite and absurd values
 (with the content id recomputed, so the limits and not the id check meet them), huge counts, deep nesting,
 wrong encodings, folders and FIFOs where files belong, and store faults (``$PBD_FAULT_STEP``: no space,
-read-only, no permission at a step of a write). ``run_case`` runs one through ``tasks.cli.main`` in this
+read-only, no permission at a step of a write). ``run_case`` runs one through ``flows.cli.main`` in this
 process; ``judge`` says what is wrong with the outcome (None when it is right): exit 0, 1 or 2 as the command
 documents, a failure as one line ``pbd COMMAND: ...`` of bounded length, never a traceback or internal error.
 """
@@ -25,8 +25,8 @@ from typing import Any
 
 import numpy as np
 
+from flows.cli import main
 from schemas.descriptor import canonical_json
-from tasks.cli import main
 
 FAULT_STEP_ENV = "PBD_FAULT_STEP"
 FAULT_MODE_ENV = "PBD_FAULT_MODE"
@@ -35,7 +35,7 @@ DESCRIPTOR_STEPS = ("descriptor.locked", "descriptor.version.written", "descript
 """Hook and steps of ``tasks.atomic`` / ``tasks.store``, spelled here so a baseline checkout without them can run
 the same corpus (the hook is then inert there: the fault cases show what happens without it)."""
 MAX_ERROR_CHARS = 400
-"""Longest error line accepted (``tasks.cli.MAX_ERROR_CHARS``)."""
+"""Longest error line accepted (``flows.cli.MAX_ERROR_CHARS``)."""
 
 COMMANDS = ("diff", "simulate", "transfer", "ingest", "learn", "store")
 """Groups of cases; ``store`` runs writing commands on a store that fails (no space, read-only, permission)."""
@@ -373,7 +373,7 @@ def make_cases(inputs: Inputs, seed: int, counts: dict[str, int]) -> list[Case]:
 
 
 def run_case(case: Case, store: Path) -> Outcome:
-    """Run ``case`` through ``tasks.cli.main`` in this process against ``store``; stdout is discarded."""
+    """Run ``case`` through ``flows.cli.main`` in this process against ``store``; stdout is discarded."""
     err = io.StringIO()
     saved = {k: os.environ.get(k) for k in case.env}
     os.environ.update(case.env)

@@ -12,7 +12,7 @@ from typing import Any
 
 import pytest
 
-from tasks.cli import MAX_ERROR_CHARS
+from flows.cli import MAX_ERROR_CHARS
 from tests.hostile.corpus import Case, Inputs, judge, make_cases, make_inputs, run_case, with_id
 
 REPO = Path(__file__).resolve().parents[2]
@@ -133,7 +133,7 @@ def test_the_exit_path_of_a_real_process(inputs: Inputs, tmp_path: Path) -> None
     cut = tmp_path / "cut.ply"
     cut.write_bytes(b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
                     b"property float z\nend_header\nx y z\nq r s\nt u v\n")  # fmt: skip
-    argv = [sys.executable, "-m", "tasks.cli", "transfer", str(inputs.descriptor), "--to", str(cut)]
+    argv = [sys.executable, "-m", "flows.cli", "transfer", str(inputs.descriptor), "--to", str(cut)]
     env = {"PYTHONPATH": str(REPO), "PATH": "/usr/bin:/bin"}
     out = subprocess.run([*argv, "--store", str(inputs.store)], capture_output=True, text=True, env=env, cwd=REPO,
                          timeout=120, check=False)  # fmt: skip
@@ -141,7 +141,7 @@ def test_the_exit_path_of_a_real_process(inputs: Inputs, tmp_path: Path) -> None
     (line,) = out.stderr.splitlines()
     assert "corrupt PLY (RPly: Error reading 'x' of 'vertex' number 0)" in line and len(line) <= MAX_ERROR_CHARS, line
     env |= {"PBD_FAULT_STEP": "stage.created", "PBD_FAULT_MODE": "EACCES"}
-    argv = [sys.executable, "-m", "tasks.cli", "ingest", str(inputs.recordings[1]), "--store", str(tmp_path / "s")]
+    argv = [sys.executable, "-m", "flows.cli", "ingest", str(inputs.recordings[1]), "--store", str(tmp_path / "s")]
     out = subprocess.run(argv, capture_output=True, text=True, env=env, cwd=REPO, timeout=120, check=False)
     assert out.returncode == 2
     (line,) = out.stderr.splitlines()

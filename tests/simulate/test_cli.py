@@ -8,11 +8,11 @@ import re
 from pathlib import Path
 
 import pytest
+from tasks.simulate.objects import DrawerSpec
 
-from tasks.cli import main
+from flows.cli import main
 from tasks.errors import DescriptorError
 from tasks.simulate.api import simulate_descriptor
-from tasks.simulate.objects import DrawerSpec
 from tests.simulate.fixtures import door_descriptor, write_door
 
 
