@@ -81,8 +81,8 @@ def make_inputs(folder: Path) -> Inputs:
     import open3d as o3d
 
     from tasks.store import Store
-    from tasks.transfer import shapes
     from tests.learn.synthetic import make_demo, write_recording
+    from tests.transfer import shapes
     from tests.transfer.conftest import make_descriptor
 
     folder.mkdir(parents=True, exist_ok=True)

@@ -8,12 +8,12 @@ import re
 from pathlib import Path
 
 import pytest
-from tasks.simulate.objects import DrawerSpec
 
 from flows.cli import main
 from tasks.errors import DescriptorError
 from tasks.simulate.api import simulate_descriptor
 from tests.simulate.fixtures import door_descriptor, write_door
+from tests.simulate.objects import DrawerSpec
 
 
 def test_json_output_shape(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
