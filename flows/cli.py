@@ -92,11 +92,32 @@ def main(argv: Sequence[str] | None = None) -> int:
         command = importlib.import_module(f"flows.commands.{args.command}")
         code: int = command.run(args)
     except PbdError as err:
-        print(f"pbd {args.command}: {err}", file=sys.stderr)
-        return 2
+        return _fail(args.command, str(err), 2)
+    except OSError as err:  # an environment fault no stage turned into a PbdError: name the file and the cause
+        where = f"{err.filename}: " if err.filename else ""
+        return _fail(args.command, f"{where}{err.strerror or err}", 2)
+    except MemoryError:
+        return _fail(args.command, "out of memory (the input is larger than this machine can hold)", 2)
     except KeyboardInterrupt:
         print(f"pbd {args.command}: interrupted", file=sys.stderr)
         return 130
+    except Exception as err:  # a bug: one line for the user, the traceback with PBD_DEBUG=1
+        if os.environ.get("PBD_DEBUG"):
+            raise
+        return _fail(args.command, f"internal error {type(err).__name__}: {err} (PBD_DEBUG=1 shows where)", 1)
+    return code
+
+
+MAX_ERROR_CHARS = 400
+"""Longest error line printed: a whole path and a cause fit; a quoted input never floods the terminal."""
+
+
+def _fail(command: str, message: str, code: int) -> int:
+    """Print ``pbd COMMAND: message`` as one line of at most ``MAX_ERROR_CHARS`` and return ``code``."""
+    line = " ".join(f"pbd {command}: {message}".split())
+    if len(line) > MAX_ERROR_CHARS:
+        line = line[: MAX_ERROR_CHARS - 3] + "..."
+    print(line, file=sys.stderr)
     return code
 
 

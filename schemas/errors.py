@@ -10,7 +10,7 @@ class PbdError(Exception):
 
 
 class DescriptorError(PbdError):
-    """A descriptor is malformed, fails its JSON Schema, or cannot be resolved."""
+    """A descriptor is malformed, fails its JSON Schema or a limit, or cannot be resolved."""
 
     def __init__(self, source: str | Path, what: str) -> None:
         self.source = str(source)

@@ -12,7 +12,7 @@ import numpy as np
 
 from schemas.descriptor import ObjectRef
 from tasks.errors import TransferError
-from tasks.store import Store, resolve_store_root, write_bytes_atomic
+from tasks.store import Store, model_sha256, resolve_store_root, write_bytes_atomic
 from tasks.transfer.api import RegistrationParams, transfer_descriptor
 from tasks.transfer.model_io import (
     is_recording_ref,
@@ -43,8 +43,8 @@ def run(args: argparse.Namespace) -> int:
         path = Path(args.model)
         target_points = read_model_file(path, seed=args.seed)
         label, object_name = str(path), _label(path.stem)
-    sha, model_path = store.put_model(target_points)
-    target_ref = ObjectRef(object_name, sha, len(target_points), str(model_path))
+    sha = model_sha256(target_points)  # stored only once the transfer succeeded
+    target_ref = ObjectRef(object_name, sha, len(target_points), str(store.model_path(sha)))
     params = RegistrationParams(crop_radius_m=args.crop_radius, whole=args.whole)
     name = args.name or f"{source.name}-to-{_label(object_name)}"
     result = transfer_descriptor(
@@ -59,6 +59,7 @@ def run(args: argparse.Namespace) -> int:
         target_label=label,
         rng=np.random.default_rng(args.seed),
     )
+    store.put_model(target_points)
     put = store.put_descriptor(result.descriptor)
     if args.out:
         write_bytes_atomic(Path(args.out), result.descriptor.to_json().encode())

@@ -51,9 +51,11 @@ def simulate_descriptor(
 
     With neither, the scene is the descriptor's object name when that is a built-in scene. ``rng`` picks the
     randomised instance of a built-in scene (use the seed the demonstration was synthesised with). Key frames
-    go to ``frames_dir`` as PNGs. ``SceneError`` for an unknown scene or unreadable URDF, ``SimulationError``
-    when the descriptor does not fit the scene.
+    go to ``frames_dir`` as PNGs. ``DescriptorError`` for a descriptor beyond the limits of a mechanism (an extent
+    of more than a few turns or metres, an axis that is not a unit vector), ``SceneError`` for an unknown scene or
+    unreadable URDF, ``SimulationError`` when the descriptor does not fit the scene.
     """
+    desc.to_dict()  # the schema and its limits (schemas.limits), for a descriptor built in memory too
     if scene is not None and urdf is not None:
         msg = "give a built-in scene or a URDF, not both"
         raise SimulationError(msg)

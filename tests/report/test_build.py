@@ -111,4 +111,18 @@ def test_report_lists_a_failed_recording(store: Store) -> None:
     assert "failed: ingest: truncated at byte 10" in paths.html.read_text()
     md = summary_markdown("with a failure", [failed], None)
     assert "| broken.mcap | - | - | failed: ingest: truncated at byte 10 | - | - |" in md
-    assert "- `/archive/broken.mcap`: ingest: truncated at byte 10" in md
+    assert "- /archive/broken.mcap: ingest: truncated at byte 10" in md
+
+
+def test_summary_markdown_escapes_file_names_and_errors() -> None:
+    hostile = EntryResult(
+        source="/archive/x | y ![img](evil.png) <b>_z_.mcap",
+        error="bad `code` [link](u)\n| forged | row |",
+    )
+    md = summary_markdown("hostile names", [hostile], None)
+    row = next(line for line in md.splitlines() if line.startswith("| x"))
+    assert row == (
+        r"| x \| y \!\[img\](evil.png) \<b\>\_z\_.mcap | - | - | failed: bad \`code\` \[link\](u) \| forged \| "
+        r"row \| | - | - |"
+    )
+    assert md.count("\n| ") == 3  # header, rule and this row: the line break in the error made no row of its own
