@@ -34,8 +34,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+
 from schemas.descriptor import Descriptor
 from schemas.limits import MAX_DESCRIPTOR_BYTES
+from schemas.tables import OBJECT_MODEL_SCHEMA
 from tasks.atomic import DIR_MODE, FILE_MODE, checkpoint, fsync_dir, write_bytes_atomic, write_errors
 from tasks.errors import DescriptorError, StoreError
 from tasks.store_index import VersionEntry, adoptable, lists, read_index, write_index
@@ -203,12 +208,6 @@ class Store:
         The Parquet file is written in a staging folder and hard-linked into ``models/`` (a link never replaces
         a file), so a kill leaves either no model or a whole one.
         """
-        import numpy as np  # noqa: PLC0415
-        import pyarrow as pa  # noqa: PLC0415
-        import pyarrow.parquet as pq  # noqa: PLC0415
-
-        from schemas.tables import OBJECT_MODEL_SCHEMA  # noqa: PLC0415
-
         pts = np.ascontiguousarray(np.asarray(points_xyz, dtype=np.float32).reshape(-1, 3))
         sha = model_sha256(pts)
         path = self.model_path(sha)
@@ -228,10 +227,6 @@ class Store:
 
     def load_model(self, sha256: str) -> Any:
         """The (n, 3) float64 model point cloud stored under ``sha256``."""
-        import numpy as np  # noqa: PLC0415
-        import pyarrow as pa  # noqa: PLC0415
-        import pyarrow.parquet as pq  # noqa: PLC0415
-
         path = self.model_path(sha256)
         if not path.is_file():
             msg = f"object model {sha256[:12]}... is not in the store"
@@ -399,7 +394,5 @@ class Store:
 
 def model_sha256(points_xyz: Any) -> str:
     """The key of an (n, 3) model point cloud in ``models/``: sha256 of its float32 x, y, z bytes."""
-    import numpy as np  # noqa: PLC0415
-
     pts = np.ascontiguousarray(np.asarray(points_xyz, dtype=np.float32).reshape(-1, 3))
     return hashlib.sha256(pts.tobytes()).hexdigest()
