@@ -538,7 +538,9 @@ def run_family_pair(pair: TransferPair) -> FamilyRow:
     desc = family_descriptor(pair)
     target = ObjectRef(f"{pair.family}-novel", None, len(pair.target))
     try:
-        result = transfer_descriptor(desc, pair.source.points, pair.target, target, rng=np.random.default_rng(pair.seed))
+        result = transfer_descriptor(
+            desc, pair.source.points, pair.target, target, rng=np.random.default_rng(pair.seed)
+        )
     except PbdError as err:
         ours, refused, why = Outcome(float("nan"), float("nan")), True, str(err)
     else:
@@ -616,13 +618,14 @@ def main() -> None:
     args = parser.parse_args()
     if args.families:
         families = tuple(args.family or FAMILIES)
-        dev = FAMILY_DEV_SEEDS[:1] if args.quick else FAMILY_DEV_SEEDS
+        count = 1 if args.quick else args.pairs
+        dev, held_out = FAMILY_DEV_SEEDS[:count], FAMILY_HELDOUT_SEEDS[:count]
         if args.only is not None:
             run_families((args.only,), "chosen pair", families)
             return
         if not args.held_out_only:
             run_families(dev, "development pairs", families)
-        run_families(FAMILY_HELDOUT_SEEDS[:1] if args.quick else FAMILY_HELDOUT_SEEDS, "held-out pairs", families)
+        run_families(held_out, "held-out pairs", families)
         return
     if args.simulate:
         run_simulation(args.pairs or (3 if args.quick else 10), args.seed, args.scene)

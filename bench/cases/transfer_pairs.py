@@ -196,9 +196,13 @@ def microwave(d: np.ndarray) -> tuple[list[Patch], np.ndarray, np.ndarray, str, 
     door_t, panel_t = 0.022, 0.012
     front = -depth / 2 - door_t
     patches = _box(d, np.array([0.0, 0.0, h / 2]))
-    patches += _box(np.array([door_w, door_t, h - 0.01]), np.array([-w / 2 + door_w / 2, -depth / 2 - door_t / 2, h / 2]))
+    patches += _box(
+        np.array([door_w, door_t, h - 0.01]), np.array([-w / 2 + door_w / 2, -depth / 2 - door_t / 2, h / 2])
+    )
     panel_w = w - door_w - gap
-    patches += _box(np.array([panel_w, panel_t, h - 0.01]), np.array([w / 2 - panel_w / 2, -depth / 2 - panel_t / 2, h / 2]))
+    patches += _box(
+        np.array([panel_w, panel_t, h - 0.01]), np.array([w / 2 - panel_w / 2, -depth / 2 - panel_t / 2, h / 2])
+    )
     grip = np.array([-w / 2 + door_w - 0.035, front - 0.03, h / 2])
     patches += _bar_handle(grip, 0.6 * h, 2, 0.03)
     return patches, np.array([-w / 2, front, h / 2]), np.array([0.0, 0.0, -1.0]), "rotation", grip
@@ -209,7 +213,9 @@ def drawer(d: np.ndarray) -> tuple[list[Patch], np.ndarray, np.ndarray, str, np.
     w, depth, h = d
     front_t, front_h = 0.02, h / 3
     patches = _box(d, np.array([0.0, 0.0, h / 2]))
-    patches += _box(np.array([w - 0.006, front_t, front_h - 0.006]), np.array([0.0, -depth / 2 - front_t / 2, h - front_h / 2]))
+    patches += _box(
+        np.array([w - 0.006, front_t, front_h - 0.006]), np.array([0.0, -depth / 2 - front_t / 2, h - front_h / 2])
+    )
     grip = np.array([0.0, -depth / 2 - front_t - 0.03, h - front_h / 2])
     patches += _bar_handle(grip, 0.4 * w, 0, 0.03)
     return patches, grip, np.array([0.0, -1.0, 0.0]), "translation", grip
@@ -241,7 +247,13 @@ def bottle(d: np.ndarray) -> tuple[list[Patch], np.ndarray, np.ndarray, str, np.
         _frustum(neck_r, neck_r, z1, z2),
         *_cylinder(cap_r, cap, np.array([0.0, 0.0, z2 + cap / 2]), 2),
     ]
-    return patches, np.array([0.0, 0.0, z2 + cap]), np.array([0.0, 0.0, 1.0]), "rotation", np.array([0, 0, z2 + cap / 2])
+    return (
+        patches,
+        np.array([0.0, 0.0, z2 + cap]),
+        np.array([0.0, 0.0, 1.0]),
+        "rotation",
+        np.array([0, 0, z2 + cap / 2]),
+    )
 
 
 BUILDERS = {"cabinet": cabinet, "microwave": microwave, "drawer": drawer, "lever": lever, "bottle": bottle}
@@ -290,7 +302,9 @@ def view_directions(family: str, views: int, rng: np.random.Generator) -> np.nda
     for k in range(views):
         azimuth = base + k * rng.uniform(0.5, 1.5) * (1 if rng.random() < 0.5 else -1)
         elevation = rng.uniform(0.0, math.radians(45.0))
-        out.append([math.cos(elevation) * math.cos(azimuth), math.cos(elevation) * math.sin(azimuth), math.sin(elevation)])
+        out.append(
+            [math.cos(elevation) * math.cos(azimuth), math.cos(elevation) * math.sin(azimuth), math.sin(elevation)]
+        )
     return np.array(out)
 
 

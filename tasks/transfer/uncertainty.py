@@ -18,9 +18,9 @@ from tasks.transfer.axis_fit import AxisFit
 from tasks.transfer.carry import carry_primitive
 from tasks.transfer.registration_types import Registration
 
-MAX_AXIS_POS_STD_M = 1.5e-3
-MAX_AXIS_DIR_STD_RAD = math.radians(1.5)
-"""A registration placing an axis more loosely than this (one sigma) is refused: two sigmas must stay within
+MAX_AXIS_POS_STD_M = 1e-3
+MAX_AXIS_DIR_STD_RAD = math.radians(1.0)
+"""A registration placing an axis more loosely than this (one sigma) is refused: three sigmas must stay within
 the transferred axis's worst-case tolerance of 3 mm and 3 degrees."""
 
 
@@ -94,4 +94,3 @@ def candidate_axes(chain: tuple[Primitive, ...], reg: Registration, count: int) 
             }
         )
     return out
-

@@ -74,7 +74,9 @@ def test_uncertainty_combines_learned_and_registration() -> None:
     rng = np.random.default_rng(1)
     fitted, _, (source, source_n, target, target_n) = _fit(np.array([1.0, 1.0, 1.0]), rng)
     spread = line_spread(fitted, source, source_n, target, target_n, 0.02, HINGE)
-    prim = Primitive("rotation", (-0.2, -0.15, 0.3), (0.0, 0.0, 1.0), 1.0, fit={"pos_std_m": 0.002, "dir_std_rad": 0.01})
+    prim = Primitive(
+        "rotation", (-0.2, -0.15, 0.3), (0.0, 0.0, 1.0), 1.0, fit={"pos_std_m": 0.002, "dir_std_rad": 0.01}
+    )
     unc = axis_uncertainty(prim, AxisFit(fitted, spread, local=False), scale=1.5)
     assert unc.learned_pos_std_m == pytest.approx(0.003)
     assert unc.pos_std_m == pytest.approx(math.hypot(0.003, spread.pos_std_m))
