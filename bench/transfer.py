@@ -44,10 +44,10 @@ from tasks.ingest.api import ingest_recording
 from tasks.learn.api import learn_descriptor
 from tasks.learn.params import LearnParams
 from tasks.recording.load import load_recording
+from tasks.rotations import quat_tuple_from_matrix
 from tasks.scenes.catalog import SCENE_NAMES, build_scene
 from tasks.scenes.kinematics import truth_descriptor
 from tasks.simulate.api import simulate_descriptor
-from tasks.rotations import quat_tuple_from_matrix
 from tasks.store import Store
 from tasks.synth.record import synthesize
 from tasks.transfer import shapes

@@ -88,7 +88,7 @@ def _box(size: np.ndarray, centre: np.ndarray) -> list[Patch]:
         for sign in (-1.0, 1.0):
 
             def sample(
-                n: int, rng: np.random.Generator, axis: int = axis, u: int = u, v: int = v, sign: float = sign
+                n: int, rng: np.random.Generator, *, axis: int = axis, u: int = u, v: int = v, sign: float = sign
             ) -> tuple[np.ndarray, np.ndarray]:
                 pts = np.empty((n, 3))
                 pts[:, axis] = c[axis] + sign * half[axis]

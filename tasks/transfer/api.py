@@ -19,11 +19,11 @@ from tasks.arrays import Points
 from tasks.code_version import code_version
 from tasks.errors import GraspError, TransferError
 from tasks.transfer.axes import place_axes, placed_spread
+from tasks.transfer.axis_fit import fit_axes
 from tasks.transfer.carry import axis_spread, carry_grasp, carry_primitive, focus_points, grip_points, keep_standoff
 from tasks.transfer.clouds import check_model
 from tasks.transfer.registration import Registration, RegistrationParams, register_models
 from tasks.transfer.similarity import Similarity
-from tasks.transfer.axis_fit import fit_axes
 from tasks.transfer.uncertainty import (
     MAX_AXIS_DIR_STD_RAD,
     MAX_AXIS_POS_STD_M,

@@ -86,7 +86,9 @@ def fit_axis(
     direction = direction / np.linalg.norm(direction)
     pos = np.asarray(prim.pos, dtype=np.float64) if prim.pos is not None else whole.centre
     line = (pos, direction)
-    global_spread = line_spread(whole, *whole_points, target, target_normals, threshold_m, line)
+    global_spread = line_spread(
+        whole, *whole_points, target=target, target_normals=target_normals, dist_m=threshold_m, line=line
+    )
     if prim.kind != "rotation" or prim.pos is None:
         return AxisFit(whole, global_spread, local=False)
     mask = axis_region(source, pos, direction, radius_m)
@@ -99,7 +101,16 @@ def fit_axis(
     fitted = whole
     for dist in (2.0 * threshold_m, threshold_m):
         fitted = stretch_icp(region, target, target_normals, fitted, dist, source_normals=normals, free_stretch=False)
-    spread = line_spread(fitted, region, normals, target, target_normals, threshold_m, line, free_stretch=False)
+    spread = line_spread(
+        fitted,
+        region,
+        normals,
+        target=target,
+        target_normals=target_normals,
+        dist_m=threshold_m,
+        line=line,
+        free_stretch=False,
+    )
     if spread.pairs < MIN_REGION_PAIRS:
         return AxisFit(whole, global_spread, local=False)
     if global_spread.dir_std_rad < spread.dir_std_rad:  # the whole model turns the axis more surely (a door's leaf)

@@ -9,7 +9,6 @@ from dataclasses import dataclass
 
 from tasks.transfer.similarity import Similarity
 
-
 SIMILAR_SCALE_RANGE = (0.6, 1.7)
 """Scales (target size over source size) a similar object can have: a hand and grasp that worked on the
 demonstrated object still fit one 0.6 to 1.7 times its size; beyond that it is another object, and a fit at such

@@ -95,7 +95,7 @@ def _small_rotation(w: Vector3) -> FloatArray:
 
 
 def _linear_system(
-    current: Stretched, p: Points, q: Points, n: Points, along: FloatArray, huber: float
+    current: Stretched, p: Points, q: Points, n: Points, *, along: FloatArray, huber: float
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Rows, residuals and robust weights of one linearised step: each pair's point-to-plane residual and, at
     ``POINT_WEIGHT``, its three point-to-point components (which see a face's edge, where the planes do not).
@@ -120,7 +120,7 @@ def _linear_system(
 
 
 def _matched(
-    current: Stretched, source: Points, source_normals: Points, target_normals: Points, tree: cKDTree, dist_m: float
+    current: Stretched, source: Points, source_normals: Points, *, target_normals: Points, tree: cKDTree, dist_m: float
 ) -> tuple[Points, np.ndarray, np.ndarray]:
     """The moved source, the indices of the target points paired with them, and which pairs count (within
     ``dist_m`` and normals agreeing within ``NORMAL_COS``)."""
@@ -155,11 +155,13 @@ def stretch_icp(
     along = (source - start.centre) @ start.axes  # (n, 3): coordinates along the box axes
     unknowns = 9 if free_stretch else 6
     for _ in range(iterations):
-        moved, idx, ok = _matched(current, source, source_normals, target_normals, tree, max_distance_m)
+        moved, idx, ok = _matched(
+            current, source, source_normals, target_normals=target_normals, tree=tree, dist_m=max_distance_m
+        )
         if int(ok.sum()) < 12:
             return current
         p, q, n = moved[ok], target[idx[ok]], target_normals[idx[ok]]
-        a, residual, w = _linear_system(current, p, q, n, along[ok], huber)
+        a, residual, w = _linear_system(current, p, q, n, along=along[ok], huber=huber)
         a = a[:, :unknowns]
         normal = (a * w[:, None]).T @ a
         ridge = np.zeros(unknowns)
@@ -197,23 +199,23 @@ def line_spread(
     fitted: Stretched,
     source: Points,
     source_normals: Points,
+    *,
     target: Points,
     target_normals: Points,
     dist_m: float,
     line: tuple[Vector3, Vector3],
-    *,
     free_stretch: bool = True,
 ) -> FitSpread:
     """The covariance of ``fitted``'s unknowns (residual variance times the inverse of the pairs' information,
     ``CORRELATED_POINTS`` pairs counting as one) carried to the line (point, unit direction; source frame)."""
     tree = cKDTree(target)
-    moved, idx, ok = _matched(fitted, source, source_normals, target_normals, tree, dist_m)
+    moved, idx, ok = _matched(fitted, source, source_normals, target_normals=target_normals, tree=tree, dist_m=dist_m)
     unknowns = 9 if free_stretch else 6
     if int(ok.sum()) < 12:
         return FitSpread(float("inf"), float("inf"), float("inf"), int(ok.sum()))
     p, q, n = moved[ok], target[idx[ok]], target_normals[idx[ok]]
     along = (source[ok] - fitted.centre) @ fitted.axes
-    a, residual, w = _linear_system(fitted, p, q, n, along, dist_m / 3.0)
+    a, residual, w = _linear_system(fitted, p, q, n, along=along, huber=dist_m / 3.0)
     plane_rows = len(p)
     rms = float(np.sqrt(np.mean(residual[:plane_rows] ** 2)))
     a = a[:plane_rows, :unknowns]  # the planes' information (the point terms see the sampling, not the surface)

@@ -59,9 +59,9 @@ def test_stretch_factors_stay_within_the_limit() -> None:
 def test_line_spread_grows_with_the_noise() -> None:
     rng = np.random.default_rng(9)
     fitted, _, (source, source_n, target, target_n) = _fit(np.array([1.1, 1.0, 0.95]), rng)
-    quiet = line_spread(fitted, source, source_n, target, target_n, 0.02, HINGE)
+    quiet = line_spread(fitted, source, source_n, target=target, target_normals=target_n, dist_m=0.02, line=HINGE)
     noisy_target = target + rng.normal(scale=3e-3, size=target.shape)
-    noisy = line_spread(fitted, source, source_n, noisy_target, target_n, 0.02, HINGE)
+    noisy = line_spread(fitted, source, source_n, target=noisy_target, target_normals=target_n, dist_m=0.02, line=HINGE)
     assert 0.0 < quiet.pos_std_m < noisy.pos_std_m < 5e-3
     assert quiet.rms_m < noisy.rms_m
     # one flat face leaves an axis along it free; two faces meeting at it pin it
@@ -73,7 +73,7 @@ def test_line_spread_grows_with_the_noise() -> None:
 def test_uncertainty_combines_learned_and_registration() -> None:
     rng = np.random.default_rng(1)
     fitted, _, (source, source_n, target, target_n) = _fit(np.array([1.0, 1.0, 1.0]), rng)
-    spread = line_spread(fitted, source, source_n, target, target_n, 0.02, HINGE)
+    spread = line_spread(fitted, source, source_n, target=target, target_normals=target_n, dist_m=0.02, line=HINGE)
     prim = Primitive(
         "rotation", (-0.2, -0.15, 0.3), (0.0, 0.0, 1.0), 1.0, fit={"pos_std_m": 0.002, "dir_std_rad": 0.01}
     )
