@@ -153,10 +153,8 @@ def test_cli_refuses_a_poor_transfer_unless_accepted(
     store: Store, stored_descriptor: Descriptor, tmp_path: Path, capsys
 ) -> None:
     rng = np.random.default_rng(4)
-    ball = rng.normal(size=(600, 3))
-    ball = 0.08 * ball / np.linalg.norm(ball, axis=1, keepdims=True)  # a sphere is nothing like a bottle
-    ply = _write_ply(tmp_path / "ball.ply", ball)
-    argv = ["transfer", "twist-cap@v1", "--to", str(ply), "--store", str(store.root)]
+    ply = _write_ply(tmp_path / "ball.ply", rng.uniform(-0.2, 0.2, size=(1500, 3)))  # noise: nothing like a bottle
+    argv = ["transfer", "twist-cap@v1", "--to", str(ply), "--store", str(store.root), "--scale-range", "0.1", "10"]
     assert main([*argv, "--json"]) == 2
     captured = capsys.readouterr()
     assert captured.err.startswith("pbd transfer: refused: ") and captured.err.count("\n") == 1, captured.err
