@@ -15,7 +15,7 @@ from functools import cache
 from importlib import resources
 from typing import Any, Literal
 
-from tasks.errors import DescriptorError
+from schemas.errors import DescriptorError
 
 DESCRIPTOR_SCHEMA = "pbd.task-descriptor/1"
 FLOAT_DIGITS = 10

@@ -29,7 +29,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+
 from schemas.descriptor import Descriptor
+from schemas.tables import OBJECT_MODEL_SCHEMA
 from tasks.errors import DescriptorError, StoreError
 
 DEFAULT_STORE = Path("data/store")
@@ -45,6 +50,18 @@ def resolve_store_root(arg: str | os.PathLike[str] | None) -> Path:
     return Path(env) if env else DEFAULT_STORE
 
 
+def _modes() -> tuple[int, int]:
+    """(file mode, folder mode) the process's umask allows (read once, at import, while one thread runs)."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return 0o666 & ~mask, 0o777 & ~mask
+
+
+FILE_MODE, DIR_MODE = _modes()
+"""Permissions of the store's files and folders: what the umask allows (temporary files start as 0600 and
+staging folders as 0700, which would make a shared store unreadable by the team)."""
+
+
 def write_bytes_atomic(path: Path, data: bytes, *, overwrite: bool = False) -> None:
     """Write ``data`` to ``path`` through a temporary file in the same folder, then rename.
 
@@ -53,6 +70,7 @@ def write_bytes_atomic(path: Path, data: bytes, *, overwrite: bool = False) -> N
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
+        os.fchmod(fd, FILE_MODE)
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
             fh.flush()
@@ -151,6 +169,7 @@ class Store:
         """A fresh temporary folder under ``tmp/``; removed on exit unless it was published."""
         self.tmp_dir.mkdir(parents=True, exist_ok=True)
         path = Path(tempfile.mkdtemp(dir=self.tmp_dir, prefix=f"{prefix}-"))
+        path.chmod(DIR_MODE)
         try:
             yield path
         finally:
@@ -171,11 +190,6 @@ class Store:
     # -- object models --------------------------------------------------------------------------------
     def put_model(self, points_xyz: Any) -> tuple[str, Path]:
         """Store an (n, 3) model point cloud (metres) as Parquet by its content sha256; returns (sha, path)."""
-        import numpy as np  # noqa: PLC0415
-        import pyarrow as pa  # noqa: PLC0415
-        import pyarrow.parquet as pq  # noqa: PLC0415
-
-        from schemas.tables import OBJECT_MODEL_SCHEMA  # noqa: PLC0415
 
         pts = np.ascontiguousarray(np.asarray(points_xyz, dtype=np.float32).reshape(-1, 3))
         sha = hashlib.sha256(pts.tobytes()).hexdigest()
@@ -185,6 +199,7 @@ class Store:
         table = pa.Table.from_arrays([pa.array(pts[:, i]) for i in range(3)], schema=OBJECT_MODEL_SCHEMA)
         self.models_dir.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(dir=self.models_dir, prefix=".model.", suffix=".tmp")
+        os.fchmod(fd, FILE_MODE)
         os.close(fd)
         try:
             pq.write_table(table, tmp)
@@ -196,8 +211,6 @@ class Store:
 
     def load_model(self, sha256: str) -> Any:
         """The (n, 3) float64 model point cloud stored under ``sha256``."""
-        import numpy as np  # noqa: PLC0415
-        import pyarrow.parquet as pq  # noqa: PLC0415
 
         path = self.models_dir / f"{sha256}.parquet"
         if not path.is_file():

@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pyarrow.parquet as pq
 
 from schemas.tables import (
     MARKERS_FILE,
@@ -99,7 +100,6 @@ def read_recording_info(folder: Path) -> dict[str, Any]:
 
 def load_recording_folder(folder: Path) -> RecordingData:
     """Load a recording folder written by ingest; raise ``RecordingError`` naming the file on bad content."""
-    import pyarrow.parquet as pq  # noqa: PLC0415
 
     info = read_recording_info(folder)
 

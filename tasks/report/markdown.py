@@ -20,6 +20,23 @@ def _sim_cell(entry: EntryResult) -> str:
     return f"{'success' if sim.success else 'FAILED'} ({pairs})" if pairs else ("success" if sim.success else "FAILED")
 
 
+def summary_rows(entries: Sequence[EntryResult]) -> list[dict[str, str]]:
+    """One row per recording (the Prefect table artifact): recording, status, descriptor, id, chain, simulation,
+    error."""
+    return [
+        {
+            "recording": Path(e.source).name,
+            "status": e.status,
+            "descriptor": e.descriptor.ref if e.descriptor else "-",
+            "id": e.descriptor.id[:12] if e.descriptor else "-",
+            "chain": str(e.extra.get("chain", "-")),
+            "simulation": _sim_cell(e),
+            "error": e.error or "",
+        }
+        for e in entries
+    ]
+
+
 def summary_markdown(title: str, entries: Sequence[EntryResult], report_html: Path | None) -> str:
     """Markdown: counts by status, a table of descriptors and simulation results, and the diffs."""
     counts = Counter(e.status for e in entries)
@@ -40,6 +57,10 @@ def summary_markdown(title: str, entries: Sequence[EntryResult], report_html: Pa
             lines.append(f"| {rec} | - | - | failed: {e.error or '?'} | - | - |")
             continue
         lines.append(f"| {rec} | {d.ref} | `{d.id[:12]}` | {e.status} | {chain} | {_sim_cell(e)} |")
+    failed = [e for e in entries if e.status == "failed"]
+    if failed:
+        lines += ["", "## Failed", ""]
+        lines += [f"- `{e.source}`: {e.error or '?'}" for e in failed]
     changed = [e for e in entries if e.status == "changed"]
     if changed:
         lines += ["", "## What changed", ""]

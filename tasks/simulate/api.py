@@ -5,11 +5,13 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pybullet as pb
 
 from schemas.descriptor import Descriptor
 from tasks.errors import SceneError, SimulationError
 from tasks.simulate.execute import GraspMode, SceneSetup, execute
 from tasks.simulate.result import SimulationResult
+from tasks.simulate.scenes import scene_setup
 
 
 def urdf_setup(urdf: Path, joints: list[str] | None) -> SceneSetup:
@@ -20,8 +22,6 @@ def urdf_setup(urdf: Path, joints: list[str] | None) -> SceneSetup:
     path = urdf.resolve()
 
     def load(client: int) -> int:
-        import pybullet as pb  # noqa: PLC0415
-
         try:
             return int(pb.loadURDF(str(path), useFixedBase=True, physicsClientId=client))
         except pb.error as err:
@@ -33,7 +33,6 @@ def urdf_setup(urdf: Path, joints: list[str] | None) -> SceneSetup:
 
 def builtin_setup(name: str, rng: np.random.Generator | None) -> SceneSetup:
     """A built-in scene (``tasks.scenes``) instance, randomised by ``rng`` (None = the nominal instance)."""
-    from tasks.simulate.scenes import scene_setup  # noqa: PLC0415 - needs tasks.scenes
 
     return scene_setup(name, rng)
 

@@ -6,14 +6,17 @@ are surface-sampled. Every failure is a ``TransferError`` naming the input.
 
 from __future__ import annotations
 
-import importlib
 import re
 from pathlib import Path
 
 import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
 
 from tasks.arrays import Points
 from tasks.errors import PbdError, TransferError
+from tasks.ingest.api import ingest_recording
+from tasks.recording.load import load_recording
 from tasks.store import Store
 
 MESH_SAMPLES = 8192
@@ -75,9 +78,6 @@ def read_model_file(path: Path, *, seed: int = 0) -> Points:
 
 
 def _read_parquet(path: Path) -> Points:
-    import pyarrow as pa  # noqa: PLC0415
-    import pyarrow.parquet as pq  # noqa: PLC0415
-
     try:
         table = pq.read_table(path)
         cols = [table.column(c).to_numpy() for c in ("x", "y", "z")]
@@ -92,18 +92,12 @@ def read_recording_model(store: Store, ref: str) -> tuple[Points, str, str]:
 
     Returns (points (n, 3) metres, recording id, object name from the recording's meta or the id).
     """
-    from tasks.recording.load import load_recording  # noqa: PLC0415
 
     path = Path(ref)
     if _RECORDING_ID.match(ref) and store.has_recording(ref):
         rec_id = ref
     elif path.exists():
-        try:
-            ingest_api = importlib.import_module("tasks.ingest.api")
-        except ImportError as err:
-            msg = f"{ref}: reading a recording needs the ingest stage, which is not built yet"
-            raise TransferError(msg) from err
-        rec_id = str(ingest_api.ingest_recording(path, store).recording_id)
+        rec_id = ingest_recording(path, store).recording_id
     else:
         msg = f"{ref}: no such model file or recording"
         raise TransferError(msg)

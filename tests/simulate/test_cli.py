@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from tasks.cli import main
+from flows.cli import main
 from tests.simulate.fixtures import door_descriptor, write_door
 
 

@@ -9,14 +9,14 @@ import numpy as np
 import open3d as o3d
 import pytest
 
+from flows.cli import main
 from schemas.descriptor import Descriptor
-from tasks.cli import main
 from tasks.errors import DescriptorError, TransferError
 from tasks.store import Store
-from tasks.transfer import shapes
 from tasks.transfer.model_io import read_model_file, read_recording_model, source_model_of
 from tasks.transfer.registration import RegistrationParams, register_models
 from tasks.transfer.similarity import Similarity, angle_between_deg
+from tests.transfer import shapes
 
 from .conftest import make_descriptor
 
