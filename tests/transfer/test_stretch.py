@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 from schemas.descriptor import Primitive
-from tasks.transfer import shapes
 from tasks.transfer.axis_fit import AxisFit, lateral_pinning
 from tasks.transfer.similarity import Similarity, angle_between_deg, point_line_distance
 from tasks.transfer.stretch import MAX_STRETCH, Stretched, box_axes, line_spread, local_similarity, stretch_icp
 from tasks.transfer.uncertainty import axis_uncertainty, with_uncertainty
+from tests.transfer import shapes
 
 SIZE = np.array([0.4, 0.3, 0.6])
 HINGE = (np.array([-0.2, -0.15, 0.3]), np.array([0.0, 0.0, 1.0]))
