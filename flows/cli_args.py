@@ -136,10 +136,25 @@ def transfer_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--name", metavar="NAME", default=None, help="descriptor name (default <source>-to-<model>)")
     parser.add_argument("--whole", action="store_true", help="align the whole model, not only its functional part")
     parser.add_argument("--crop-radius", metavar="M", type=float, default=None, help="functional region radius (m)")
-    parser.add_argument("--strict", action="store_true", help="a poor registration is an error (exit 2)")
+    parser.add_argument("--strict", action="store_true", help="a failed grasp re-planning is an error (exit 2)")
+    parser.add_argument(
+        "--accept-ambiguous",
+        action="store_true",
+        help="write the best guess even when the registration is poor, ambiguous or loose (default: exit 2)",
+    )
+    parser.add_argument(
+        "--scale-range",
+        nargs=2,
+        type=float,
+        metavar=("LO", "HI"),
+        default=None,
+        help="target/source size ratios allowed (default 0.6 1.7)",
+    )
     parser.add_argument("--replan-grasp", action="store_true", help="re-plan the grasp on the target model")
     parser.add_argument("--seed", metavar="N", type=int, default=0, help="random seed (default 0)")
-    parser.add_argument("--json", action="store_true", help="print the result as JSON on stdout")
+    parser.add_argument(
+        "--json", action="store_true", help="print the result (the candidates' axes when refused) as JSON"
+    )
 
 
 def simulate_arguments(parser: argparse.ArgumentParser) -> None:

@@ -45,7 +45,11 @@ def run(args: argparse.Namespace) -> int:
         label, object_name = str(path), _label(path.stem)
     sha = model_sha256(target_points)  # stored only once the transfer succeeded
     target_ref = ObjectRef(object_name, sha, len(target_points), str(store.model_path(sha)))
-    params = RegistrationParams(crop_radius_m=args.crop_radius, whole=args.whole)
+    scale_range = tuple(args.scale_range) if args.scale_range else RegistrationParams().scale_range
+    if not 0.0 < scale_range[0] < scale_range[1]:
+        msg = f"--scale-range {scale_range[0]:g} {scale_range[1]:g}: need 0 < LO < HI"
+        raise TransferError(msg)
+    params = RegistrationParams(crop_radius_m=args.crop_radius, whole=args.whole, scale_range=scale_range)
     name = args.name or f"{source.name}-to-{_label(object_name)}"
     result = transfer_descriptor(
         source,
@@ -59,6 +63,13 @@ def run(args: argparse.Namespace) -> int:
         target_label=label,
         rng=np.random.default_rng(args.seed),
     )
+    info = result.descriptor.extra_provenance["transfer"]
+    if result.poor and not args.accept_ambiguous:
+        if args.json:
+            outcome = {"refused": True, "reasons": list(result.reasons), "candidates": info["candidates"]}
+            sys.stdout.write(json.dumps(outcome, indent=2) + "\n")
+        msg = f"refused: {'; '.join(result.reasons)} (--accept-ambiguous writes the best guess)"
+        raise TransferError(msg)
     store.put_model(target_points)
     put = store.put_descriptor(result.descriptor)
     if args.out:
@@ -79,6 +90,8 @@ def run(args: argparse.Namespace) -> int:
             "axis_spread_mm": result.axis_spread_mm,
             "crop_radius_m": reg.crop_radius_m,
             "poor": result.poor,
+            "refused": False,
+            "transfer": info,
         }
         sys.stdout.write(json.dumps(out, indent=2) + "\n")
         return 0
@@ -90,6 +103,11 @@ def run(args: argparse.Namespace) -> int:
         f"scale {reg.best.transform.scale:.4f}  axis spread {result.axis_spread_deg:.2f} deg "
         f"{result.axis_spread_mm:.2f} mm  region "
         f"{'whole' if reg.crop_radius_m is None else f'functional (r={reg.crop_radius_m * 1e3:.0f} mm)'}"
-        f"{'  POOR' if result.poor else ''}\n"
+        f"{'  POOR (accepted)' if result.poor else ''}\n"
     )
+    for i, prim in enumerate(result.descriptor.chain):
+        pos_std, dir_std = prim.fit.get("pos_std_m"), prim.fit.get("dir_std_rad")
+        pos_text = f"{pos_std * 1e3:.2f} mm, " if isinstance(pos_std, float) else ""
+        dir_text = f"{dir_std * 57.29577951308232:.2f} deg" if isinstance(dir_std, float) else "unknown"
+        sys.stdout.write(f"axis {i} ({prim.kind}) uncertainty: {pos_text}{dir_text} (one sigma)\n")
     return 0

@@ -20,6 +20,7 @@ from prefect.context import TaskRunContext
 
 from flows.caching import RETRIES, RETRY_DELAY_S, retry_on_transient_io, stage_key
 from schemas.descriptor import Descriptor, ObjectRef
+from tasks.errors import TransferError
 from tasks.report.refs import DescriptorRef
 from tasks.store import Store
 from tasks.transfer.api import RegistrationParams, transfer_descriptor
@@ -85,7 +86,8 @@ def transfer_cache_key(context: TaskRunContext, parameters: dict[str, Any]) -> s
     del context
     source: DescriptorRef = parameters["descriptor"]
     target: ModelRef = parameters["target"]
-    params = {k: parameters.get(k) for k in ("name", "whole", "crop_radius_m", "strict", "replan_grasp", "seed")}
+    keys = ("name", "whole", "crop_radius_m", "strict", "replan_grasp", "seed", "accept_ambiguous", "scale_range")
+    params = {k: parameters.get(k) for k in keys}
     refs = {"descriptor": source.id, "target_model": target.sha256}
     return stage_key("transfer", TRANSFER_MODULES, refs, params)
 
@@ -109,8 +111,11 @@ def transfer_task(
     strict: bool = False,
     replan_grasp: bool = False,
     seed: int = 0,
+    accept_ambiguous: bool = False,
+    scale_range: tuple[float, float] | None = None,
 ) -> Descriptor:
-    """Register the source descriptor's object model onto ``target`` and carry chain and grasp across."""
+    """Register the source descriptor's object model onto ``target`` and carry chain and grasp across; a poor,
+    ambiguous or loose registration is a ``TransferError`` unless ``accept_ambiguous``."""
     store = Store(store_root)
     source = Descriptor.from_json(Path(descriptor.path).read_text(), source=descriptor.path)
     source_points = source_model_of(store, source.object.model_sha256, source.object.model_uri, descriptor.path)
@@ -121,10 +126,15 @@ def transfer_task(
         target_points,
         ObjectRef(target.object_name, target.sha256, target.points, target.path),
         name=name or f"{source.name}-to-{_label(target.object_name)}",
-        params=RegistrationParams(crop_radius_m=crop_radius_m, whole=whole),
+        params=RegistrationParams(
+            crop_radius_m=crop_radius_m, whole=whole, scale_range=scale_range or RegistrationParams().scale_range
+        ),
         strict=strict,
         replan_grasp=replan_grasp,
         target_label=target.label,
         rng=np.random.default_rng(seed),
     )
+    if result.poor and not accept_ambiguous:
+        msg = f"refused: {'; '.join(result.reasons)} (accept_ambiguous writes the best guess)"
+        raise TransferError(msg)
     return result.descriptor

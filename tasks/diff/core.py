@@ -34,10 +34,13 @@ class PrimitiveChange:
     axis_offset_mm: float | None
     extent_change: float
     extent_unit: str
+    uncertainty: dict[str, dict[str, float | None]] = field(default_factory=dict)
+    """Each side's axis uncertainty (``a``/``b``: ``pos_std_mm``, ``dir_std_deg``; one sigma) where it records one."""
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready."""
         return {
+            "uncertainty": self.uncertainty,
             "index_a": self.index_a,
             "index_b": self.index_b,
             "kind": self.kind,
@@ -135,7 +138,19 @@ def compare_primitives(pa: Primitive, pb: Primitive, ia: int, ib: int) -> Primit
             w = np.asarray(pb.pos, dtype=np.float64) - np.asarray(pa.pos, dtype=np.float64)
             offset = float(np.linalg.norm(w - np.dot(w, ua) * ua) * 1000.0)
     unit = "rad" if pa.kind == "rotation" else "m"
-    return PrimitiveChange(ia, ib, pa.kind, angle, offset, float(pb.extent - pa.extent), unit)
+    sides = {side: axis_std(p) for side, p in (("a", pa), ("b", pb))}
+    uncertainty = {side: std for side, std in sides.items() if any(v is not None for v in std.values())}
+    return PrimitiveChange(ia, ib, pa.kind, angle, offset, float(pb.extent - pa.extent), unit, uncertainty)
+
+
+def axis_std(p: Primitive) -> dict[str, float | None]:
+    """The axis uncertainty a primitive's ``fit`` block records (``pos_std_m``, ``dir_std_rad``), in mm and
+    degrees; None where it records none."""
+    pos, direction = p.fit.get("pos_std_m"), p.fit.get("dir_std_rad")
+    return {
+        "pos_std_mm": float(pos) * 1000.0 if isinstance(pos, int | float) else None,
+        "dir_std_deg": float(np.degrees(direction)) if isinstance(direction, int | float) else None,
+    }
 
 
 def _beyond(value: float, tolerance: float) -> bool:
@@ -206,6 +221,16 @@ def diff_descriptors(a: Descriptor, b: Descriptor, tol: Tolerances | None = None
     )
 
 
+def _uncertainty_text(uncertainty: dict[str, dict[str, float | None]]) -> str:
+    """``; axis std A 0.50 mm 0.10 deg, B ...`` (one sigma) for the sides that record one, else empty."""
+    parts = []
+    for side, std in uncertainty.items():
+        pos, direction = std.get("pos_std_mm"), std.get("dir_std_deg")
+        words = [f"{pos:.2f} mm" if pos is not None else "", f"{direction:.2f} deg" if direction is not None else ""]
+        parts.append(f"{side.upper()} {' '.join(w for w in words if w)}")
+    return f"; axis std {', '.join(parts)}" if parts else ""
+
+
 def format_diff(d: DescriptorDiff) -> list[str]:
     """The diff in words, one line per change."""
     head = f"{d.a['name']} {d.a['id'][:12]} -> {d.b['name']} {d.b['id'][:12]}: " + ("same" if d.same else "different")
@@ -220,7 +245,7 @@ def format_diff(d: DescriptorDiff) -> list[str]:
         off = f", axis offset {c.axis_offset_mm:.3f} mm" if c.axis_offset_mm is not None else ""
         lines.append(
             f"  {c.kind} {c.index_a}->{c.index_b}: axis angle {c.axis_angle_deg:.3f} deg{off}, "
-            f"extent {c.extent_change:+.4g} {c.extent_unit}"
+            f"extent {c.extent_change:+.4g} {c.extent_unit}{_uncertainty_text(c.uncertainty)}"
         )
     if d.grasp is not None and d.grasp.get("change") != "same":
         g = d.grasp

@@ -20,10 +20,18 @@ from tasks.code_version import code_version
 from tasks.errors import GraspError, TransferError
 from tasks.grasp import api as grasp_api
 from tasks.transfer.axes import place_axes, placed_spread
-from tasks.transfer.carry import carry_grasp, carry_primitive, focus_points, grip_points, keep_standoff
+from tasks.transfer.axis_fit import fit_axes
+from tasks.transfer.carry import axis_spread, carry_grasp, carry_primitive, focus_points, grip_points, keep_standoff
 from tasks.transfer.clouds import check_model
 from tasks.transfer.registration import Registration, RegistrationParams, register_models
 from tasks.transfer.similarity import Similarity
+from tasks.transfer.uncertainty import (
+    MAX_AXIS_DIR_STD_RAD,
+    MAX_AXIS_POS_STD_M,
+    axis_uncertainty,
+    candidate_axes,
+    with_uncertainty,
+)
 
 __all__ = ["RegistrationParams", "TransferResult", "register_models", "transfer_descriptor"]
 
@@ -34,9 +42,10 @@ SPREAD_COUNT = 5
 """At most this many best alignments (the best included) enter the axis spread."""
 STANDOFF_RAY_SPACINGS = 3.0
 """The palm's approach ray meets the surface at points within 3 median point spacings of it."""
-MAX_SPREAD_DEG = 5.0
-MAX_SPREAD_MM = 5.0
-"""A larger axis spread makes the registration poor: the data do not single out one alignment."""
+MAX_SPREAD_DEG = 3.0
+MAX_SPREAD_MM = 3.0
+"""Alignments as good as the best that carry an axis further apart than the transferred axis's worst-case
+tolerance (3 degrees, 3 mm) make the transfer ambiguous: the data do not single out one of them."""
 
 
 @dataclass(frozen=True)
@@ -50,8 +59,11 @@ class TransferResult:
     axis_spread_mm: float
     """Largest point-to-line distance between them, millimetres (target frame)."""
     poor: bool
-    """The registration is poor (``Registration.poor``) or the axis spread is above the limits."""
+    """The transfer is refused unless the user accepts it: the fit is poor, alignments as good as the best
+    disagree on an axis, or the registration places an axis too loosely (``reasons``)."""
     warnings: tuple[str, ...]
+    reasons: tuple[str, ...] = ()
+    """Why ``poor``: one line each."""
 
 
 def plausible_alternatives(reg: Registration) -> list[Similarity]:
@@ -118,6 +130,9 @@ def transfer_descriptor(
     )
     warnings = list(reg.warnings)
     best = reg.best.transform
+    fits = fit_axes(
+        desc.chain, source, target, best=best, grip=grip, threshold_m=reg.threshold_m, spacing_m=reg.spacing_m, rng=rng
+    )
     placed = place_axes(
         desc.chain,
         source,
@@ -126,18 +141,42 @@ def transfer_descriptor(
         grip=grip,
         threshold_m=reg.threshold_m,
         spacing_m=reg.spacing_m,
+        starts=fits.starts,
     )
-    spread_deg, spread_m = placed_spread(desc.chain, source, target, placed, plausible_alternatives(reg))
-    uncertain = spread_deg > MAX_SPREAD_DEG or spread_m * 1e3 > MAX_SPREAD_MM
-    if uncertain:
-        warnings.append(
-            f"poor registration: alignments as good as the best disagree on the axes by {spread_deg:.1f} deg "
+    alternatives: list[tuple[Similarity, ...]] = []
+    for alt in plausible_alternatives(reg):
+        deg, metres = axis_spread(desc.chain, best, [alt])
+        if deg > MAX_SPREAD_DEG or metres * 1e3 > MAX_SPREAD_MM:  # placed as the best was, they may yet agree
+            alt_fit = fit_axes(
+                desc.chain, source, target, best=alt, grip=grip, threshold_m=reg.threshold_m,
+                spacing_m=reg.spacing_m, rng=rng,
+            )  # fmt: skip
+            alternatives.append(alt_fit.starts)
+    spread_deg, spread_m = placed_spread(desc.chain, source, target, placed, alternatives)
+    reasons: list[str] = []
+    if spread_deg > MAX_SPREAD_DEG or spread_m * 1e3 > MAX_SPREAD_MM:
+        reasons.append(
+            f"ambiguous registration: alignments as good as the best disagree on the axes by {spread_deg:.1f} deg "
             f"and {spread_m * 1e3:.1f} mm (want <= {MAX_SPREAD_DEG:g} deg and {MAX_SPREAD_MM:g} mm)"
         )
-    warnings.extend(placed.warnings)
-    poor = reg.poor or uncertain or bool(placed.warnings)
+    uncertainty = tuple(
+        axis_uncertainty(prim, fit, transform.scale)
+        for prim, fit, transform in zip(desc.chain, fits.axes, placed.transforms, strict=True)
+    )
+    for i, unc in enumerate(uncertainty):
+        if unc.registration_pos_std_m > MAX_AXIS_POS_STD_M or unc.registration_dir_std_rad > MAX_AXIS_DIR_STD_RAD:
+            reasons.append(
+                f"uncertain registration: axis {i} is placed within {unc.registration_pos_std_m * 1e3:.1f} mm and "
+                f"{math.degrees(unc.registration_dir_std_rad):.2f} deg (one sigma; want <= "
+                f"{MAX_AXIS_POS_STD_M * 1e3:g} mm and {math.degrees(MAX_AXIS_DIR_STD_RAD):g} deg)"
+            )
+    if reg.poor:
+        reasons.extend(w for w in reg.warnings if w.startswith("poor"))
+    reasons.extend(placed.warnings)
+    warnings.extend(r for r in reasons if r not in warnings)
+    poor = bool(reasons)
     if poor and strict:
-        msg = "; ".join(w for w in warnings if w.startswith("poor")) + " (--strict)"
+        msg = "; ".join(reasons) + " (--strict)"
         raise TransferError(msg)
 
     grasp = None
@@ -158,15 +197,25 @@ def transfer_descriptor(
         "transform": best.matrix().tolist(),
         "axis_spread_deg": spread_deg,
         "axis_spread_mm": spread_m * 1e3,
+        "plane_rmse_m": _finite(reg.best.plane_rmse_m),
+        "scale_range": list(params.scale_range),
+        "stretch": {"axes": fits.whole.axes.T.tolist(), "factors": fits.whole.factors.tolist()},
+        "refused": poor,
+        "reasons": reasons,
+        "candidates": candidate_axes(desc.chain, reg, SPREAD_COUNT),
         "axes": [
             {
+                "placed_by": "symmetry" if snapped > 0.0 else ("neighbourhood" if fit.local else "whole model"),
+                "residual_rms_m": _finite(fit.spread.rms_m),
+                "registration_pos_std_m": _finite(unc.registration_pos_std_m),
+                "registration_dir_std_rad": _finite(unc.registration_dir_std_rad),
                 "snapped_mm": snapped * 1e3,
                 "region_points": check.region_points,
                 "back_fitness": _finite(check.back_fitness),
                 "local_turn_deg": check.turn_deg,
                 "local_shift_mm": check.shift_m * 1e3,
             }
-            for snapped, check in zip(placed.snapped_m, placed.checks, strict=True)
+            for snapped, check, fit, unc in zip(placed.snapped_m, placed.checks, fits.axes, uncertainty, strict=True)
         ],
         "start": reg.best.start,
         "region": "whole" if reg.crop_radius_m is None else "functional",
@@ -182,7 +231,10 @@ def transfer_descriptor(
         action=desc.action,
         object=target_object,
         grasp=grasp,
-        chain=tuple(carry_primitive(p, t) for p, t in zip(desc.chain, placed.transforms, strict=True)),
+        chain=tuple(
+            with_uncertainty(carry_primitive(p, t), u)
+            for p, t, u in zip(desc.chain, placed.transforms, uncertainty, strict=True)
+        ),
         recording_id=desc.recording_id,
         recording_path=desc.recording_path,
         parameters=desc.parameters,
@@ -190,4 +242,4 @@ def transfer_descriptor(
         parent=desc.id,
         extra_provenance={**desc.extra_provenance, "transfer": info},
     )
-    return TransferResult(out, reg, spread_deg, spread_m * 1e3, poor, tuple(warnings))
+    return TransferResult(out, reg, spread_deg, spread_m * 1e3, poor, tuple(warnings), tuple(reasons))

@@ -86,11 +86,13 @@ def place_axes(
     threshold_m: float,
     spacing_m: float,
     params: LocalParams | None = None,
+    starts: tuple[Similarity, ...] | None = None,
 ) -> PlacedAxes:
     """Place every primitive of ``chain`` (source frame) on ``target`` from the global transform ``best``.
 
     ``grip``: (g, 3) grasped-part points (source frame); ``threshold_m`` and ``spacing_m``: the registration's
-    final correspondence threshold and the target's median point spacing."""
+    final correspondence threshold and the target's median point spacing; ``starts``: one transform per
+    primitive to start from instead of ``best`` (the stretched fit's, ``stretch.local_similarity``)."""
     params = params or LocalParams()
     span, radius = region_size(source, params)
     normals = surface_normals(target, spacing_m)
@@ -100,10 +102,11 @@ def place_axes(
     checks: list[LocalCheck] = []
     grasp_transform: Similarity | None = None
     for i, prim in enumerate(chain):
-        moved = _snap(prim, source, target, best, radius)
-        transform = moved if moved is not None else best
+        start = starts[i] if starts is not None else best
+        moved = _snap(prim, source, target, start, radius)
+        transform = moved if moved is not None else start
         transforms.append(transform)
-        shift = float(np.linalg.norm(transform.translation - best.translation))
+        shift = float(np.linalg.norm(transform.translation - start.translation))
         snapped.append(shift)
         check = check_axis(
             prim,
@@ -133,14 +136,15 @@ def snapped_transforms(
     chain: tuple[Primitive, ...],
     source: Points,
     target: Points,
-    transform: Similarity,
+    transform: Similarity | tuple[Similarity, ...],
     params: LocalParams | None = None,
 ) -> tuple[Similarity, ...]:
-    """One transform per primitive: ``transform``, moved onto the target's symmetry axis where ``place_axes``
-    would move it (no local check): how an alternative alignment would place the axes."""
+    """One transform per primitive: ``transform`` (or the primitive's own start), moved onto the target's
+    symmetry axis where ``place_axes`` would move it (no local check): how an alternative would place the axes."""
     params = params or LocalParams()
     _, radius = region_size(source, params)
-    return tuple(_snap(prim, source, target, transform, radius) or transform for prim in chain)
+    starts = transform if isinstance(transform, tuple) else (transform,) * len(chain)
+    return tuple(_snap(prim, source, target, t, radius) or t for prim, t in zip(chain, starts, strict=True))
 
 
 def placed_spread(
@@ -148,9 +152,9 @@ def placed_spread(
     source: Points,
     target: Points,
     placed: PlacedAxes,
-    alternatives: list[Similarity],
+    alternatives: list[Similarity] | list[tuple[Similarity, ...]],
 ) -> tuple[float, float]:
-    """Largest change of any placed axis between ``placed`` and each alternative alignment placed the same way:
-    (degrees, metres point to line)."""
+    """Largest change of any placed axis between ``placed`` and each alternative alignment (or per-primitive
+    starts) placed the same way: (degrees, metres point to line)."""
     others = [snapped_transforms(chain, source, target, alt) for alt in alternatives]
     return axis_spread(chain, placed.transforms, others)

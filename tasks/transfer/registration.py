@@ -26,6 +26,7 @@ import numpy as np
 import open3d as o3d
 
 from tasks.arrays import FloatArray, Points, check_points
+from tasks.errors import TransferError
 from tasks.transfer.clouds import (
     MIN_POINTS,
     O3dCloud,
@@ -48,6 +49,8 @@ from tasks.transfer.similarity import Similarity
 
 __all__ = ["Alignment", "Registration", "RegistrationParams", "register_models"]
 
+START_SCALE_SLACK = 1.25
+"""Global starts up to 25 % outside the scale range are refined: their refinement may bring them within it."""
 MID_VOXEL_DIVISOR = 80.0
 """The whole-model point-to-point stage works at the target's bounding-box diagonal / this."""
 RESAMPLE_RESCALE = math.log(1.05)
@@ -222,7 +225,12 @@ def register_models(
     o3d.utility.set_verbosity_level(o3d.utility.VerbosityLevel.Error)  # its warnings would go to stdout
     src = check_model(source, "source model")
     tgt = check_model(target, "target model")
-    kept = global_starts(src, tgt, span_t=bbox_diagonal(tgt), params=params, rng=rng, init=init)
+    lo, hi = params.scale_range
+    kept = [
+        (name, start)
+        for name, start in global_starts(src, tgt, span_t=bbox_diagonal(tgt), params=params, rng=rng, init=init)
+        if lo / START_SCALE_SLACK <= start.scale <= hi * START_SCALE_SLACK
+    ]
 
     warnings: list[str] = []
     used_idx, crop_radius = functional_region(src, focus, params, warnings)
@@ -281,7 +289,13 @@ def register_models(
             raw_sample, raw_normals, tgt, fine.normals, fitted, max_distance_m=threshold
         )
         alignments.append(Alignment(fitted, fit, rmse, plane_rmse, agreement, model_score, score, name))
-    order = ranked(alignments)
+    order = ranked([a for a in alignments if lo <= a.transform.scale <= hi])
+    if not order:
+        msg = (
+            f"no alignment of the models at a scale within {lo:g}..{hi:g} (target size over source size; "
+            "--scale-range LO HI to allow others)"
+        )
+        raise TransferError(msg)
     best = order[0]
     warning = poor_fit_warning(best, params, threshold)
     if warning is not None:

@@ -9,11 +9,18 @@ from dataclasses import dataclass
 
 from tasks.transfer.similarity import Similarity
 
+SIMILAR_SCALE_RANGE = (0.6, 1.7)
+"""Scales (target size over source size) a similar object can have: a hand and grasp that worked on the
+demonstrated object still fit one 0.6 to 1.7 times its size; beyond that it is another object, and a fit at such
+a scale is a part of one model matched onto a part of the other."""
+
 
 @dataclass(frozen=True)
 class RegistrationParams:
     """Settings of ``register_models``; lengths in metres unless named otherwise."""
 
+    scale_range: tuple[float, float] = SIMILAR_SCALE_RANGE
+    """Alignments at a scale outside this range are dropped (``pbd transfer --scale-range LO HI``)."""
     crop_radius_m: float | None = None
     """Radius of the functional region around each focus point; None: ``auto_crop_frac`` x source diagonal."""
     auto_crop_frac: float = 0.18

@@ -74,3 +74,17 @@ def test_cli_exit_codes_and_json(store: Store, tmp_path: Path, capsys: pytest.Ca
     assert "open-door has versions 1..2, not 9" in capsys.readouterr().err
     v1 = store.versions("open-door")[0].id
     assert main(["diff", v1[:10], "open-door@v1", "--store", root]) == 0
+
+
+def test_axis_uncertainty_is_shown() -> None:
+    learned = dataclasses.replace(ROT, fit={"pos_std_m": 0.001, "dir_std_rad": 0.01})
+    moved = dataclasses.replace(ROT, pos=(0.5, 0.004, 1.0), fit={"pos_std_m": 0.0025, "dir_std_rad": 0.02})
+    d = diff_descriptors(_desc((learned, TRA)), _desc((moved, TRA)))
+    (c,) = d.changed
+    assert c.uncertainty["a"] == {"pos_std_mm": pytest.approx(1.0), "dir_std_deg": pytest.approx(0.5729578)}
+    assert c.uncertainty["b"]["pos_std_mm"] == pytest.approx(2.5)
+    assert "axis std A 1.00 mm 0.57 deg, B 2.50 mm 1.15 deg" in format_diff(d)[1]
+    assert d.to_dict()["changed"][0]["uncertainty"]["b"]["dir_std_deg"] == pytest.approx(1.1459156)
+    # descriptors without one show none
+    plain = diff_descriptors(_desc((ROT, TRA)), _desc((dataclasses.replace(ROT, extent=2.0), TRA)))
+    assert plain.changed[0].uncertainty == {} and "axis std" not in format_diff(plain)[1]

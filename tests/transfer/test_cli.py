@@ -11,9 +11,10 @@ import pytest
 
 from flows.cli import main
 from schemas.descriptor import Descriptor
-from tasks.errors import TransferError
+from tasks.errors import DescriptorError, TransferError
 from tasks.store import Store
 from tasks.transfer.model_io import read_model_file, read_recording_model, source_model_of
+from tasks.transfer.registration import RegistrationParams, register_models
 from tasks.transfer.similarity import Similarity, angle_between_deg
 from tests.transfer import shapes
 
@@ -197,3 +198,44 @@ def test_dense_models_are_thinned_for_registration(tmp_path: Path) -> None:
     assert got.shape == (REGISTRATION_POINTS, 3)
     assert np.array_equal(got, read_model_file(tmp_path / "dense.npy", seed=1))  # seeded: the same subset
     assert np.isin(got[:, 0], dense[:, 0]).all()  # a subset, not new points
+
+
+def test_cli_refuses_a_poor_transfer_unless_accepted(
+    store: Store, stored_descriptor: Descriptor, tmp_path: Path, capsys
+) -> None:
+    rng = np.random.default_rng(4)
+    ply = _write_ply(tmp_path / "ball.ply", rng.uniform(-0.2, 0.2, size=(1500, 3)))  # noise: nothing like a bottle
+    argv = ["transfer", "twist-cap@v1", "--to", str(ply), "--store", str(store.root), "--scale-range", "0.1", "10"]
+    assert main([*argv, "--json"]) == 2
+    captured = capsys.readouterr()
+    assert captured.err.startswith("pbd transfer: refused: ") and captured.err.count("\n") == 1, captured.err
+    assert "--accept-ambiguous writes the best guess" in captured.err
+    outcome = json.loads(captured.out)
+    assert outcome["refused"] is True and outcome["reasons"]
+    assert outcome["candidates"] and len(outcome["candidates"][0]["axes"]) == 2
+    with pytest.raises(DescriptorError, match="no descriptor named 'twist-cap-to-ball'"):
+        store.load("twist-cap-to-ball@latest")
+    assert main([*argv, "--accept-ambiguous"]) == 0
+    out = capsys.readouterr().out
+    assert "POOR (accepted)" in out and "axis 0 (rotation) uncertainty:" in out
+    info = store.load("twist-cap-to-ball@latest").extra_provenance["transfer"]
+    assert info["refused"] is True and info["reasons"] == outcome["reasons"]
+
+
+def test_cli_scale_range(
+    store: Store, stored_descriptor: Descriptor, bottle_model: shapes.ShapeModel, tmp_path: Path, capsys
+) -> None:
+    ply = _write_ply(tmp_path / "same.ply", bottle_model.points[::3])
+    argv = ["transfer", "twist-cap@v1", "--to", str(ply), "--store", str(store.root)]
+    assert main([*argv, "--scale-range", "2", "1"]) == 2
+    assert "--scale-range 2 1: need 0 < LO < HI" in capsys.readouterr().err
+    assert main([*argv, "--scale-range", "3", "4"]) == 2
+    err = capsys.readouterr().err
+    assert "no alignment of the models at a scale within 3..4" in err and err.count("\n") == 1
+    with pytest.raises(TransferError, match=r"no alignment of the models at a scale within 0\.2\.\.0\.5"):
+        register_models(
+            bottle_model.points[::3],
+            bottle_model.points[::3],
+            params=RegistrationParams(scale_range=(0.2, 0.5)),
+            rng=np.random.default_rng(0),
+        )

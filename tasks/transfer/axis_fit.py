@@ -1,0 +1,173 @@
+"""Where each axis lands: the stretched fit of the whole model, then a rigid fit of the axis's neighbourhood.
+
+The whole model's stretched fit (``stretch``) carries the proportions; the points about a rotation's axis (its
+hinge edge, the lever and rose) pin the axis itself, once the model's faces that meet there are matched by a
+rigid point-to-plane fit of that neighbourhood alone, started from the stretched fit. The neighbourhood is used
+only when its normals pin the axis across itself (their scatter across the axis has both eigenvalues at least
+``MIN_LATERAL``: two faces meeting at a hinge, a lever's sides), and when its fit pairs enough points; else the
+whole model's fit places the axis. Each placement comes with its spread (``stretch.line_spread``). Lengths in
+metres.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from schemas.descriptor import Primitive
+from tasks.arrays import Points, Vector3
+from tasks.transfer.clouds import median_spacing
+from tasks.transfer.local_refine import LocalParams, axis_region, region_size
+from tasks.transfer.registration import surface_normals
+from tasks.transfer.similarity import Similarity, point_line_distance
+from tasks.transfer.stretch import (
+    STRETCH_POINTS,
+    FitSpread,
+    Stretched,
+    box_axes,
+    fit_stretch,
+    line_spread,
+    local_similarity,
+    stretch_icp,
+)
+
+MIN_LATERAL = 0.05
+"""The neighbourhood pins the axis when its normals' scatter across the axis has both eigenvalues at least this
+(one flat face: 0, free to slide; two perpendicular faces in equal parts: 0.5)."""
+MIN_REGION_PAIRS = 60
+"""Fewer matched neighbourhood points than this: the neighbourhood does not place the axis."""
+
+
+@dataclass(frozen=True)
+class AxisFit:
+    """The fit that carries one primitive and how well it pins the axis."""
+
+    fit: Stretched
+    spread: FitSpread
+    local: bool
+    """True when the axis's neighbourhood placed it (else the whole model's stretched fit)."""
+    direction_from: Stretched | None = None
+    """The fit that turns the axis when it is not ``fit`` (the whole model's, when it pins the direction better)."""
+
+    def start(self, pos: Vector3, direction: Vector3) -> Similarity:
+        """The similarity carrying the line through ``pos`` along unit ``direction`` (source frame) as this fit
+        places it."""
+        out = local_similarity(self.fit, pos, direction)
+        if self.direction_from is None:
+            return out
+        turned = local_similarity(self.direction_from, pos, direction)
+        return Similarity(out.scale, turned.rotation, out.apply_point(pos) - out.scale * turned.rotation @ pos)
+
+
+def lateral_pinning(normals: Points, direction: np.ndarray) -> float:
+    """Smaller eigenvalue of the normals' scatter across unit ``direction`` (0: they leave the axis free)."""
+    across = normals @ (np.eye(3) - np.outer(direction, direction))
+    return float(np.linalg.eigvalsh(across.T @ across / max(len(normals), 1))[1])
+
+
+def fit_axis(
+    prim: Primitive,
+    source: Points,
+    source_normals: Points,
+    target: Points,
+    target_normals: Points,
+    *,
+    whole: Stretched,
+    whole_points: tuple[Points, Points],
+    grip: Points,
+    radius_m: float,
+    threshold_m: float,
+) -> AxisFit:
+    """The fit carrying ``prim`` (source frame) onto ``target``: its neighbourhood's rigid fit from ``whole``
+    when that pins it, else ``whole``. ``whole_points``: the points and normals ``whole`` was fitted with;
+    ``grip``: (g, 3) grasped-part points, whose ball joins the neighbourhood of an axis within ``radius_m``."""
+    direction = np.asarray(prim.dir, dtype=np.float64)
+    direction = direction / np.linalg.norm(direction)
+    pos = np.asarray(prim.pos, dtype=np.float64) if prim.pos is not None else whole.centre
+    line = (pos, direction)
+    global_spread = line_spread(
+        whole, *whole_points, target=target, target_normals=target_normals, dist_m=threshold_m, line=line
+    )
+    if prim.kind != "rotation" or prim.pos is None:
+        return AxisFit(whole, global_spread, local=False)
+    mask = axis_region(source, pos, direction, radius_m)
+    for g in grip:
+        if point_line_distance(g, pos, direction) <= radius_m:
+            mask |= ((source - g) ** 2).sum(axis=1) <= radius_m**2
+    if int(mask.sum()) < MIN_REGION_PAIRS or lateral_pinning(source_normals[mask], direction) < MIN_LATERAL:
+        return AxisFit(whole, global_spread, local=False)
+    region, normals = source[mask], source_normals[mask]
+    fitted = whole
+    for dist in (2.0 * threshold_m, threshold_m):
+        fitted = stretch_icp(region, target, target_normals, fitted, dist, source_normals=normals, free_stretch=False)
+    spread = line_spread(
+        fitted,
+        region,
+        normals,
+        target=target,
+        target_normals=target_normals,
+        dist_m=threshold_m,
+        line=line,
+        free_stretch=False,
+    )
+    if spread.pairs < MIN_REGION_PAIRS:
+        return AxisFit(whole, global_spread, local=False)
+    if global_spread.dir_std_rad < spread.dir_std_rad:  # the whole model turns the axis more surely (a door's leaf)
+        return AxisFit(fitted, replace(spread, dir_std_rad=global_spread.dir_std_rad), local=True, direction_from=whole)
+    return AxisFit(fitted, spread, local=True)
+
+
+@dataclass(frozen=True)
+class AxisFits:
+    """The whole model's stretched fit and, per primitive, its fit and the similarity that carries it."""
+
+    whole: Stretched
+    axes: tuple[AxisFit, ...]
+    starts: tuple[Similarity, ...]
+    """Per primitive: the similarity carrying its axis as its fit does (``stretch.local_similarity``)."""
+
+
+def fit_axes(
+    chain: tuple[Primitive, ...],
+    source: Points,
+    target: Points,
+    *,
+    best: Similarity,
+    grip: Points,
+    threshold_m: float,
+    spacing_m: float,
+    rng: np.random.Generator,
+) -> AxisFits:
+    """The stretched fit of ``source`` onto ``target`` from the registration's ``best``, then every primitive's
+    own fit (``fit_axis``); ``threshold_m`` and ``spacing_m``: the registration's final correspondence threshold
+    and the target's median point spacing."""
+    source_normals = surface_normals(source, median_spacing(source))
+    target_normals = surface_normals(target, spacing_m)
+    pick = rng.permutation(source.shape[0])[:STRETCH_POINTS]
+    sample = (source[pick], source_normals[pick])
+    whole = fit_stretch(
+        sample, target, target_normals, best, threshold_m, axes=box_axes(source), centre=source.mean(axis=0)
+    )
+    _, radius = region_size(source, LocalParams())
+    fits = tuple(
+        fit_axis(
+            prim,
+            source,
+            source_normals,
+            target,
+            target_normals,
+            whole=whole,
+            whole_points=sample,
+            grip=grip,
+            radius_m=radius,
+            threshold_m=threshold_m,
+        )
+        for prim in chain
+    )
+    starts = []
+    for prim, fit in zip(chain, fits, strict=True):
+        pos = np.asarray(prim.pos, dtype=np.float64) if prim.pos is not None else whole.centre
+        direction = np.asarray(prim.dir, dtype=np.float64)
+        starts.append(fit.start(pos, direction / np.linalg.norm(direction)))
+    return AxisFits(whole, fits, tuple(starts))

@@ -1,0 +1,281 @@
+"""A similarity with a stretch along the source's box axes: for objects of the same design in other proportions.
+
+A novel cabinet may be wider but not deeper than the demonstrated one; no similarity maps one onto the other,
+and a hinge on the door's edge lands beside the true one by the difference of the half-widths. The stretched
+map is
+
+    x_target = S(c + V diag(f) V^T (x - c))
+
+with ``S`` the registration's similarity, ``V`` (3, 3) the source's box axes (columns: its minimal oriented
+bounding box, open3d), ``c`` the source's centroid and ``f`` (3,) stretch factors. ``stretch_icp`` refines the
+rotation, translation and factors by point-to-plane ICP (the similarity's own scale stays, so the factors carry
+the proportions); factors the target's scan does not constrain stay at 1 by a small ridge. Each primitive is
+then carried by the similarity that agrees with the stretched map at its axis (``local_similarity``). Lengths
+in metres.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import open3d as o3d
+from scipy.spatial import cKDTree
+
+from tasks.arrays import FloatArray, Points, Vector3
+from tasks.transfer.similarity import Similarity
+
+MAX_STRETCH = 1.5
+"""Stretch factors stay within 1/1.5 .. 1.5: a similar object's proportions differ by at most half again along
+any of its axes (beyond that it is another design, whose functional part a stretched fit cannot be trusted on)."""
+MAX_STEP = 0.05
+"""Largest relative change of a factor per iteration (keeps a poor start from running away)."""
+NORMAL_COS = math.cos(math.radians(30.0))
+"""Paired normals must agree within 30 degrees (beyond, the pair joins a face to another face)."""
+CORRELATED_POINTS = 4.0
+"""Neighbouring pairs share their error (a depth scanner's noise is smooth over a pixel or two, so a point and
+its nearest neighbours err together): the residuals count as one independent observation per 2 x 2 pairs."""
+POINT_WEIGHT = 0.3
+"""Weight of the point-to-point components beside the point-to-plane residual."""
+RIDGE = 1e-2
+"""Weight of the pull of each factor's change towards 0, as a fraction of the data's own weight along it:
+directions the scan does not show keep their proportions."""
+
+
+@dataclass(frozen=True)
+class Stretched:
+    """x_target = similarity(centre + axes diag(factors) axes^T (x - centre)); source frame in, target out."""
+
+    similarity: Similarity
+    axes: FloatArray
+    """(3, 3) unit columns: the source's box axes (source frame)."""
+    factors: FloatArray
+    """(3,) stretch along each column of ``axes`` (1: the similarity alone)."""
+    centre: Vector3
+    """(3,) source-frame centre of the stretch, metres."""
+
+    def linear(self) -> FloatArray:
+        """The (3, 3) stretch V diag(f) V^T (source frame)."""
+        out: FloatArray = self.axes @ np.diag(self.factors) @ self.axes.T
+        return out
+
+    def apply_points(self, points: Points) -> Points:
+        """Map (n, 3) source points (metres) into the target frame."""
+        return self.similarity.apply_points(self.centre + (points - self.centre) @ self.linear().T)
+
+    def carry_line(self, pos: Vector3, direction: Vector3) -> tuple[Vector3, Vector3]:
+        """The image of the line through ``pos`` along ``direction``: (point, unit direction), target frame."""
+        moved = self.similarity.apply_point(self.centre + self.linear() @ (pos - self.centre))
+        return moved, self.similarity.apply_direction(self.linear() @ direction)
+
+
+def box_axes(points: Points) -> FloatArray:
+    """(3, 3) unit columns: the axes of the minimal oriented bounding box of ``points`` (open3d)."""
+    cloud = o3d.geometry.PointCloud()
+    cloud.points = o3d.utility.Vector3dVector(np.ascontiguousarray(points, dtype=np.float64))
+    rot = np.asarray(cloud.get_minimal_oriented_bounding_box().R, dtype=np.float64)
+    u, _, vt = np.linalg.svd(rot)
+    out: FloatArray = u @ vt
+    return out
+
+
+def _skew(w: Vector3) -> FloatArray:
+    return np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
+
+
+def _small_rotation(w: Vector3) -> FloatArray:
+    """Rotation of angle |w| about w (Rodrigues)."""
+    angle = float(np.linalg.norm(w))
+    if angle < 1e-15:
+        return np.eye(3)
+    k = _skew(w / angle)
+    out: FloatArray = np.eye(3) + math.sin(angle) * k + (1.0 - math.cos(angle)) * k @ k
+    return out
+
+
+def _linear_system(
+    current: Stretched, p: Points, q: Points, n: Points, *, along: FloatArray, huber: float
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Rows, residuals and robust weights of one linearised step: each pair's point-to-plane residual and, at
+    ``POINT_WEIGHT``, its three point-to-point components (which see a face's edge, where the planes do not).
+    Unknowns: small rotation about the pairs' centroid (3), translation (3), relative factor changes (3)."""
+    centre = p.mean(axis=0)
+    sim = current.similarity
+    turned_axes = sim.rotation @ current.axes  # target-frame box axes
+    d_stretch = sim.scale * current.factors * along  # (m, 3): d p / d sigma_k = d_stretch[:, k] * turned_axes[:, k]
+    d = p - centre
+    plane = np.hstack([np.cross(d, n), n, d_stretch * (n @ turned_axes)])
+    plane_res = np.einsum("ij,ij->i", n, q - p)
+    rows, res = [plane], [plane_res]
+    for j in range(3):
+        e = np.zeros(3)
+        e[j] = 1.0
+        rot_j = np.cross(d, e)
+        rows.append(POINT_WEIGHT * np.hstack([rot_j, np.tile(e, (len(p), 1)), d_stretch * turned_axes[j]]))
+        res.append(POINT_WEIGHT * (q - p)[:, j])
+    a, residual = np.vstack(rows), np.concatenate(res)
+    w = np.minimum(1.0, huber / np.maximum(np.abs(residual), 1e-12))
+    return a, residual, w
+
+
+def _matched(
+    current: Stretched, source: Points, source_normals: Points, *, target_normals: Points, tree: cKDTree, dist_m: float
+) -> tuple[Points, np.ndarray, np.ndarray]:
+    """The moved source, the indices of the target points paired with them, and which pairs count (within
+    ``dist_m`` and normals agreeing within ``NORMAL_COS``)."""
+    moved = current.apply_points(source)
+    dist, idx = tree.query(moved, distance_upper_bound=dist_m)
+    ok = np.isfinite(dist)
+    turned = source_normals @ (current.similarity.rotation @ current.linear()).T
+    agree = np.abs(np.einsum("ij,ij->i", turned[ok], target_normals[idx[ok]]))
+    ok[ok] &= agree >= NORMAL_COS * np.linalg.norm(turned[ok], axis=1)
+    return moved, idx, ok
+
+
+def stretch_icp(
+    source: Points,
+    target: Points,
+    target_normals: Points,
+    start: Stretched,
+    max_distance_m: float,
+    *,
+    source_normals: Points,
+    iterations: int = 30,
+    free_stretch: bool = True,
+) -> Stretched:
+    """Refine ``start`` by point-to-plane ICP over rotation, translation and (``free_stretch``) the three
+    stretch factors; source (n, 3) and target (m, 3) metres, ``source_normals`` (n, 3) and ``target_normals``
+    (m, 3) unit (unsigned). Pairs whose normals disagree are left out: a face the scan missed would pull the
+    model's edges in. ``start`` when too few pairs match."""
+    tree = cKDTree(target)
+    current = start
+    huber = max_distance_m / 3.0
+    limit = math.log(MAX_STRETCH)
+    along = (source - start.centre) @ start.axes  # (n, 3): coordinates along the box axes
+    unknowns = 9 if free_stretch else 6
+    for _ in range(iterations):
+        moved, idx, ok = _matched(
+            current, source, source_normals, target_normals=target_normals, tree=tree, dist_m=max_distance_m
+        )
+        if int(ok.sum()) < 12:
+            return current
+        p, q, n = moved[ok], target[idx[ok]], target_normals[idx[ok]]
+        a, residual, w = _linear_system(current, p, q, n, along=along[ok], huber=huber)
+        a = a[:, :unknowns]
+        normal = (a * w[:, None]).T @ a
+        ridge = np.zeros(unknowns)
+        if free_stretch:
+            ridge[6:] = RIDGE * np.trace(normal[6:, 6:]) / 3.0 + 1e-12
+        try:
+            x = np.linalg.solve(normal + np.diag(ridge) + 1e-12 * np.eye(unknowns), (a * w[:, None]).T @ residual)
+        except np.linalg.LinAlgError:
+            return current
+        centre = p.mean(axis=0)
+        sigma = np.clip(x[6:], -MAX_STEP, MAX_STEP) if free_stretch else np.zeros(3)
+        factors = np.exp(np.clip(np.log(current.factors * (1.0 + sigma)), -limit, limit))
+        rot = _small_rotation(np.asarray(x[:3], dtype=np.float64))
+        delta = Similarity(1.0, rot, centre + x[3:6] - rot @ centre)
+        current = Stretched(delta.compose(current.similarity), current.axes, factors, current.centre)
+        if np.linalg.norm(x[:3]) < 1e-7 and np.linalg.norm(x[3:6]) < 1e-8 and np.abs(sigma).max() < 1e-6:
+            break
+    return current
+
+
+@dataclass(frozen=True)
+class FitSpread:
+    """How well a fit pins a carried line: standard deviations from the fit's residuals (target frame)."""
+
+    pos_std_m: float
+    """RMS displacement of the carried axis point across the axis, one sigma, metres."""
+    dir_std_rad: float
+    """RMS turn of the carried direction, one sigma, radians."""
+    rms_m: float
+    """RMS point-to-plane residual of the pairs, metres."""
+    pairs: int
+
+
+def line_spread(
+    fitted: Stretched,
+    source: Points,
+    source_normals: Points,
+    *,
+    target: Points,
+    target_normals: Points,
+    dist_m: float,
+    line: tuple[Vector3, Vector3],
+    free_stretch: bool = True,
+) -> FitSpread:
+    """The covariance of ``fitted``'s unknowns (residual variance times the inverse of the pairs' information,
+    ``CORRELATED_POINTS`` pairs counting as one) carried to the line (point, unit direction; source frame)."""
+    tree = cKDTree(target)
+    moved, idx, ok = _matched(fitted, source, source_normals, target_normals=target_normals, tree=tree, dist_m=dist_m)
+    unknowns = 9 if free_stretch else 6
+    if int(ok.sum()) < 12:
+        return FitSpread(float("inf"), float("inf"), float("inf"), int(ok.sum()))
+    p, q, n = moved[ok], target[idx[ok]], target_normals[idx[ok]]
+    along = (source[ok] - fitted.centre) @ fitted.axes
+    a, residual, w = _linear_system(fitted, p, q, n, along=along, huber=dist_m / 3.0)
+    plane_rows = len(p)
+    rms = float(np.sqrt(np.mean(residual[:plane_rows] ** 2)))
+    a = a[:plane_rows, :unknowns]  # the planes' information (the point terms see the sampling, not the surface)
+    info = (a * w[:plane_rows, None]).T @ a / CORRELATED_POINTS
+    cov = np.linalg.pinv(info, rcond=1e-10) * rms**2
+    pos, direction = line
+    moved_pos, moved_dir = fitted.carry_line(pos, direction)
+    centre = p.mean(axis=0)
+    jac = np.zeros((3, unknowns))
+    jac[:, :3] = -_skew(moved_pos - centre)
+    jac[:, 3:6] = np.eye(3)
+    if free_stretch:
+        coord = (pos - fitted.centre) @ fitted.axes
+        turned_axes = fitted.similarity.rotation @ fitted.axes
+        jac[:, 6:] = fitted.similarity.scale * fitted.factors * coord * turned_axes
+    across = np.eye(3) - np.outer(moved_dir, moved_dir)
+    cov_pos = across @ jac @ cov @ jac.T @ across
+    turn = _skew(moved_dir) @ cov[:3, :3] @ _skew(moved_dir).T
+    return FitSpread(
+        float(np.sqrt(max(np.trace(cov_pos), 0.0) / 2.0)),
+        float(np.sqrt(max(np.trace(turn), 0.0) / 2.0)),
+        rms,
+        int(ok.sum()),
+    )
+
+
+def local_similarity(stretched: Stretched, pos: Vector3, direction: Vector3) -> Similarity:
+    """The similarity that carries the line through ``pos`` along unit ``direction`` (source frame) as
+    ``stretched`` does: the similarity's rotation turned so the direction follows the stretch, its scale times
+    the factors' geometric mean, and the point landing where the stretch puts it."""
+    sim = stretched.similarity
+    moved_pos, moved_dir = stretched.carry_line(pos, direction)
+    plain = sim.rotation @ direction
+    axis = np.cross(plain, moved_dir)
+    turn = _small_rotation(np.asarray(axis, dtype=np.float64) / max(float(np.linalg.norm(axis)), 1e-15) * math.atan2(
+        float(np.linalg.norm(axis)), float(np.dot(plain, moved_dir))
+    )) if np.linalg.norm(axis) > 1e-12 else np.eye(3)  # fmt: skip
+    rotation = turn @ sim.rotation
+    scale = sim.scale * float(np.prod(stretched.factors)) ** (1.0 / 3.0)
+    return Similarity(scale, rotation, moved_pos - scale * rotation @ pos)
+
+
+STRETCH_POINTS = 3000
+"""Source points (a random subset of the model) the stretched fit uses."""
+
+
+def fit_stretch(
+    sample: tuple[Points, Points],
+    target: Points,
+    target_normals: Points,
+    best: Similarity,
+    threshold_m: float,
+    *,
+    axes: FloatArray,
+    centre: Vector3,
+) -> Stretched:
+    """The stretched fit of the source points and normals ``sample`` onto ``target`` from the registration's
+    ``best`` similarity along the source's box ``axes`` about ``centre`` (metres; the correspondence distance
+    shrinks from 4 to 1 ``threshold_m``)."""
+    current = Stretched(best, axes, np.ones(3), centre)
+    for dist in (4.0 * threshold_m, 2.0 * threshold_m, threshold_m):
+        current = stretch_icp(sample[0], target, target_normals, current, dist, source_normals=sample[1])
+    return current

@@ -1,0 +1,91 @@
+"""The stretched fit recovers a box's proportions and pins the axes the data pin; the uncertainty it gives."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from schemas.descriptor import Primitive
+from tasks.transfer.axis_fit import AxisFit, lateral_pinning
+from tasks.transfer.similarity import Similarity, angle_between_deg, point_line_distance
+from tasks.transfer.stretch import MAX_STRETCH, Stretched, box_axes, line_spread, local_similarity, stretch_icp
+from tasks.transfer.uncertainty import axis_uncertainty, with_uncertainty
+from tests.transfer import shapes
+
+SIZE = np.array([0.4, 0.3, 0.6])
+HINGE = (np.array([-0.2, -0.15, 0.3]), np.array([0.0, 0.0, 1.0]))
+
+
+def _box(rng: np.random.Generator, n: int, stretch: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    points, normals = shapes.sample_parts(shapes.box(SIZE * stretch, np.zeros(3)), n, rng)
+    return points, normals
+
+
+def _fit(stretch: np.ndarray, rng: np.random.Generator) -> tuple[Stretched, Similarity, tuple[np.ndarray, ...]]:
+    source, source_n = _box(rng, 1500, np.ones(3))
+    target, target_n = _box(rng, 1500, stretch)
+    truth = Similarity(1.0, shapes.random_rotation(rng), rng.uniform(-0.3, 0.3, 3))
+    target, target_n = truth.apply_points(target), target_n @ truth.rotation.T
+    start = Stretched(truth, box_axes(source), np.ones(3), source.mean(axis=0))
+    fitted = start
+    for dist in (0.08, 0.04, 0.02):
+        fitted = stretch_icp(source, target, target_n, fitted, dist, source_normals=source_n)
+    return fitted, truth, (source, source_n, target, target_n)
+
+
+def test_stretch_recovers_a_boxs_proportions_and_its_edge() -> None:
+    stretch = np.array([1.2, 0.9, 1.1])
+    fitted, truth, _ = _fit(stretch, np.random.default_rng(3))
+    # the factors come along the box axes found on the source (their order and signs are the box's own)
+    found = np.abs(fitted.axes.T) @ fitted.factors / np.abs(fitted.axes.T).sum(axis=1)
+    np.testing.assert_allclose(np.sort(found), np.sort(stretch), rtol=0.01)
+    pos, direction = fitted.carry_line(*HINGE)
+    true_pos = truth.apply_point(HINGE[0] * stretch)
+    assert point_line_distance(true_pos, pos, direction) < 1e-3
+    assert angle_between_deg(direction, truth.apply_direction(HINGE[1])) < 0.2
+    # the similarity carrying that one line as the stretched map does
+    sim = local_similarity(fitted, *HINGE)
+    np.testing.assert_allclose(sim.apply_point(HINGE[0]), pos, atol=1e-9)
+    assert angle_between_deg(sim.apply_direction(HINGE[1]), direction) < 1e-6
+
+
+def test_stretch_factors_stay_within_the_limit() -> None:
+    fitted, _, _ = _fit(np.array([2.0, 1.0, 1.0]), np.random.default_rng(5))
+    assert fitted.factors.max() <= MAX_STRETCH + 1e-9 and fitted.factors.min() >= 1.0 / MAX_STRETCH - 1e-9
+
+
+def test_line_spread_grows_with_the_noise() -> None:
+    rng = np.random.default_rng(9)
+    fitted, _, (source, source_n, target, target_n) = _fit(np.array([1.1, 1.0, 0.95]), rng)
+    quiet = line_spread(fitted, source, source_n, target=target, target_normals=target_n, dist_m=0.02, line=HINGE)
+    noisy_target = target + rng.normal(scale=3e-3, size=target.shape)
+    noisy = line_spread(fitted, source, source_n, target=noisy_target, target_normals=target_n, dist_m=0.02, line=HINGE)
+    assert 0.0 < quiet.pos_std_m < noisy.pos_std_m < 5e-3
+    assert quiet.rms_m < noisy.rms_m
+    # one flat face leaves an axis along it free; two faces meeting at it pin it
+    assert lateral_pinning(np.tile([0.0, -1.0, 0.0], (50, 1)), HINGE[1]) == pytest.approx(0.0)
+    corner = np.vstack([np.tile([0.0, -1.0, 0.0], (50, 1)), np.tile([-1.0, 0.0, 0.0], (50, 1))])
+    assert lateral_pinning(corner, HINGE[1]) == pytest.approx(0.5)
+
+
+def test_uncertainty_combines_learned_and_registration() -> None:
+    rng = np.random.default_rng(1)
+    fitted, _, (source, source_n, target, target_n) = _fit(np.array([1.0, 1.0, 1.0]), rng)
+    spread = line_spread(fitted, source, source_n, target=target, target_normals=target_n, dist_m=0.02, line=HINGE)
+    prim = Primitive(
+        "rotation", (-0.2, -0.15, 0.3), (0.0, 0.0, 1.0), 1.0, fit={"pos_std_m": 0.002, "dir_std_rad": 0.01}
+    )
+    unc = axis_uncertainty(prim, AxisFit(fitted, spread, local=False), scale=1.5)
+    assert unc.learned_pos_std_m == pytest.approx(0.003)
+    assert unc.pos_std_m == pytest.approx(math.hypot(0.003, spread.pos_std_m))
+    assert unc.dir_std_rad == pytest.approx(math.hypot(0.01, spread.dir_std_rad))
+    out = with_uncertainty(prim, unc)
+    assert out.fit["pos_std_m"] == pytest.approx(unc.pos_std_m)
+    assert out.fit["registration_pos_std_m"] == pytest.approx(spread.pos_std_m)
+    assert out.fit["learned_dir_std_rad"] == pytest.approx(0.01)
+    # a primitive learned without an uncertainty keeps the registration's alone
+    bare = axis_uncertainty(Primitive("translation", None, (0.0, 1.0, 0.0), 0.1), AxisFit(fitted, spread, False), 1.0)
+    assert bare.learned_dir_std_rad is None and bare.dir_std_rad == pytest.approx(spread.dir_std_rad)
+    assert "pos_std_m" not in with_uncertainty(Primitive("translation", None, (0.0, 1.0, 0.0), 0.1), bare).fit
