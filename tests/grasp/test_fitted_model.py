@@ -6,12 +6,12 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from bench.cases.grasp import handle_on_plate
 from tasks.grasp.api import plan_grasp
 from tasks.grasp.hold_check import hold_check
 from tasks.grasp.object_model import PrimitiveShape, build_object_model
 from tasks.grasp.shake import shake_test
 from tasks.grasp.surface_sampling import sample_box_surface, sample_cylinder_surface
+from tests.grasp.cases.grasp import handle_on_plate
 
 CENTRE = np.array([0.5, 0.0, 0.4])
 

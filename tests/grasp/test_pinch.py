@@ -11,7 +11,6 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from bench.cases.exact import exact_model
 from tasks.arrays import Points
 from tasks.grasp import api, object_model, planner
 from tasks.grasp.api import plan_on_model
@@ -30,6 +29,7 @@ from tasks.grasp.shake import Motion, ShakeParams, shake_test
 from tasks.grasp.surface_sampling import sample_box_surface, sample_cylinder_surface
 from tasks.scenes.surface import WorldShape
 from tests.grasp.bench_object import plan_bench_object
+from tests.grasp.cases.exact import exact_model
 
 BAR_CENTRE = np.array([0.5, 0.0, 0.5])
 BAR_RADIUS_M = 0.010
@@ -114,7 +114,7 @@ def test_neighbours_of_a_pinch_are_rolled_and_moved_on_the_approach(planner_mode
 def test_thin_gap_handle_is_held_by_a_pinch(planner_model: ObjectModel) -> None:
     """No grasp near the demonstration holds; the planned grasp is a pinch 60-100 mm from the bar, with a force
     closure, and it holds the bar (a free body, the plate an obstacle while the fingers close) on its exact shapes
-    (``bench/cases/exact.py``), under world gravity and shakes along x, y and z at 2.5 Hz with 6 m/s² peaks, three
+    (``tests/grasp/cases/exact.py``), under world gravity and shakes along x, y and z at 2.5 Hz with 6 m/s² peaks, three
     cycles."""
     cand = plan_on_model(planner_model, SEED_POS, PALM_ROT.as_quat(), np.random.default_rng(7))
     grasp = grasp_from_candidate(cand)

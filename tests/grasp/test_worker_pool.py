@@ -12,7 +12,6 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from bench.cases.grasp import scene_cases
 from tasks.arrays import FloatArray
 from tasks.errors import GraspError
 from tasks.grasp import worker_pool
@@ -32,6 +31,7 @@ from tasks.grasp.planner import (
     search,
 )
 from tasks.grasp.worker_pool import PROCESSES_ENV, Beside
+from tests.grasp.cases.grasp import scene_cases
 
 SEED = 7
 """``bench/grasp.py``'s first seed."""
