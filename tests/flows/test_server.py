@@ -17,7 +17,7 @@ from tasks.store import Store
 from tests.flows.local_server import BIN, LocalServer, deployment_id, flow_runs, local_server, start, stop
 from tests.flows.recordings import write_door_recording
 
-pytestmark = pytest.mark.server
+pytestmark = [pytest.mark.server, pytest.mark.slow]
 
 
 @dataclass

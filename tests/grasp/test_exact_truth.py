@@ -5,6 +5,7 @@ holds its exact shapes."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from scipy.spatial.transform import Rotation
 
 from tasks.grasp.api import plan_grasp
@@ -39,6 +40,7 @@ def test_a_scenes_exact_model_is_its_part_on_the_shapes_near_the_palm() -> None:
     assert any(np.ptp(p, axis=0).max() > 0.8 for p in model.parts[len(lever) :])
 
 
+@pytest.mark.slow
 def test_a_grasp_planned_on_a_scanned_handle_holds_its_exact_shapes() -> None:
     rng = np.random.default_rng(8)
     pts, centre = handle_on_plate(0.012, 0.14, 0.04, True, rng)

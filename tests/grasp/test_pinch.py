@@ -111,6 +111,7 @@ def test_neighbours_of_a_pinch_are_rolled_and_moved_on_the_approach(planner_mode
     assert len(set(seen)) == len(seen)
 
 
+@pytest.mark.slow
 def test_thin_gap_handle_is_held_by_a_pinch(planner_model: ObjectModel) -> None:
     """No grasp near the demonstration holds; the planned grasp is a pinch 60-100 mm from the bar, with a force
     closure, and it holds the bar (a free body, the plate an obstacle while the fingers close) on its exact shapes
@@ -154,6 +155,7 @@ def test_rolled_pinches_are_the_pinches_turned_about_the_approach(planner_model:
     assert rolls == {-15, 15}
 
 
+@pytest.mark.slow
 def test_benchmark_handle_whose_pinches_show_no_closure_is_held_by_a_square_one() -> None:
     """The benchmark's handle r13 l128 (seed 7): no grasp near the demonstration holds, and the pinches of the
     demonstrated palm that hold show no force closure, even squeezed (a rolled one held at the eleventh session).
@@ -170,6 +172,7 @@ def test_benchmark_handle_whose_pinches_show_no_closure_is_held_by_a_square_one(
     assert planned.holds
 
 
+@pytest.mark.slow
 def test_benchmark_handle_held_loosely_near_the_demonstration_is_held_by_a_firm_pinch(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
@@ -187,6 +190,7 @@ def test_benchmark_handle_held_loosely_near_the_demonstration_is_held_by_a_firm_
     assert planned.holds
 
 
+@pytest.mark.slow
 def test_a_handle_is_pinched_before_its_neighbourhood_is_searched_again(monkeypatch: pytest.MonkeyPatch) -> None:
     """The benchmark's handle r13 l128 (seed 7): no grasp of the first round holds, and the pinches are checked
     before a second annealing round (``api.ROUNDS``): one search, and the pinch holds the exact handle."""

@@ -82,6 +82,7 @@ def test_real_sturm_tracks_are_classified_right(folder: str, log: str, kind: str
         assert abs(result.chain[0].fit["radii_m"][0] - radius) < 0.03
 
 
+@pytest.mark.slow
 def test_paper_baseline_runs_with_given_k() -> None:
     rec = sturm_recording(STURM / "drawer" / "002.log")
     result = learn_chain(rec, LearnParams.paper_baseline(k=1), RNG(0))

@@ -165,7 +165,7 @@ def test_loader_names_a_corrupt_or_incomplete_table(store: Store) -> None:
 def test_loader_keeps_nan_dropouts_and_sorts_by_stamp(store: Store) -> None:
     folder = _fake_ingest(store, "00000000000000dd")
     table = pa.Table.from_pydict(
-        {"marker": ["m", "m", "m"], "stamp_ns": [30, 10, 20], "x": [3.0, 1.0, float("nan")], "y": [0.0] * 3, "z": [0.0] * 3},
+        {"marker": ["m"] * 3, "stamp_ns": [30, 10, 20], "x": [3.0, 1.0, float("nan")], "y": [0.0] * 3, "z": [0.0] * 3},
         schema=MARKERS_SCHEMA,
     )
     pq.write_table(table, folder / "markers.parquet")

@@ -24,7 +24,7 @@ def _rotation_angle_deg(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.degrees(np.arccos(np.clip((np.trace(a.T @ b) - 1.0) / 2.0, -1.0, 1.0))))
 
 
-@pytest.mark.parametrize(("scale", "seed"), [(0.8, 11), (1.3, 12)])
+@pytest.mark.parametrize(("scale", "seed"), [(0.8, 11), pytest.param(1.3, 12, marks=pytest.mark.slow)])
 def test_known_similarity_is_recovered(bottle_model: shapes.ShapeModel, scale: float, seed: int) -> None:
     rng = np.random.default_rng(seed)
     truth = Similarity(scale, shapes.random_rotation(rng), np.array([0.3, -0.2, 0.5]))
@@ -41,6 +41,7 @@ def test_known_similarity_is_recovered(bottle_model: shapes.ShapeModel, scale: f
     assert reg.crop_radius_m is not None
 
 
+@pytest.mark.slow
 def test_asymmetric_shape_recovers_the_full_rotation() -> None:
     rng = np.random.default_rng(21)
     mug = shapes.mug(rng, n=4000)
@@ -91,6 +92,7 @@ def test_descriptor_moves_with_the_object(bottle_model: shapes.ShapeModel) -> No
     assert np.array(info["transform"]).shape == (4, 4)
 
 
+@pytest.mark.slow
 def test_unrelated_target_is_poor_and_strict_refuses(bottle_model: shapes.ShapeModel) -> None:
     rng = np.random.default_rng(41)
     noise = rng.uniform(-0.2, 0.2, size=(1500, 3))
@@ -104,6 +106,7 @@ def test_unrelated_target_is_poor_and_strict_refuses(bottle_model: shapes.ShapeM
         transfer_descriptor(desc, bottle_model.points, noise, ref, params=FAST, strict=True, rng=rng)
 
 
+@pytest.mark.slow
 def test_replan_grasp_plans_on_the_target(bottle_model: shapes.ShapeModel) -> None:
     rng = np.random.default_rng(51)
     target = bottle_model.points * 1.1
