@@ -11,13 +11,14 @@ $(STAMP): pyproject.toml
 	$(MAKE) sysdeps
 	test -x $(BIN)/python || $(PY) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip uninstall --quiet --yes open3d 2>/dev/null || true  # replaced by open3d-cpu (same module)
 	$(BIN)/python -m pip install --quiet -e '.[dev]'
 	touch $(STAMP)
 
-# open3d needs libusb-1.0 from the system; install it where missing (Debian, as root).
+# open3d-cpu needs libusb-1.0 from the system; install it where missing (Debian, as root).
 sysdeps:
 	@if ! ldconfig -p 2>/dev/null | grep -q 'libusb-1.0.so.0'; then \
-		echo "installing libusb-1.0-0 (needed by open3d)"; \
+		echo "installing libusb-1.0-0 (needed by open3d-cpu)"; \
 		apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libusb-1.0-0 >/dev/null; \
 	fi
 
