@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test lint typecheck bench sysdeps clean
+.PHONY: demo test test-slow test-all lint typecheck bench sysdeps clean
 
 $(STAMP): pyproject.toml
 	@command -v $(PY) >/dev/null 2>&1 || { echo "need $(PY) on PATH" >&2; exit 1; }
@@ -32,8 +32,21 @@ lint: $(STAMP)
 typecheck: $(STAMP)
 	$(BIN)/mypy
 
+# Tests run in $(WORKERS) processes (pytest-xdist), a module's tests in one of them (its fixtures are set up once).
+WORKERS ?= 2
+PYTEST := $(BIN)/pytest -q -n $(WORKERS) --dist loadscope
+
+# The fast set: every test but those marked slow (whole-benchmark plans, long simulations, full flow runs).
 test: lint typecheck
-	$(BIN)/pytest -q
+	$(PYTEST) -m "not slow"
+
+# The slow set alone (CI runs it after `make test`).
+test-slow: $(STAMP)
+	$(PYTEST) -m slow
+
+# Everything: lint, types, the fast and the slow tests.
+test-all: lint typecheck
+	$(PYTEST)
 
 bench: $(STAMP)
 	@for b in bench/*.py; do echo "== $$b"; $(BIN)/python $$b || exit 1; done
