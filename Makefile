@@ -32,7 +32,7 @@ lint: $(STAMP)
 typecheck: $(STAMP)
 	$(BIN)/mypy
 
-# Tests run in $(WORKERS) processes (pytest-xdist), a module's tests in one of them (its fixtures are set up once).
+# Tests run in $(WORKERS) processes (pytest-xdist; WORKERS=0: in pytest's own), a module's tests in one of them.
 WORKERS ?= 2
 PYTEST := $(BIN)/pytest -q -n $(WORKERS) --dist loadscope
 
