@@ -4,6 +4,7 @@ keeps its convex pieces, and the grasp planned on the fit holds the exact shape.
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from scipy.spatial.transform import Rotation
 
 from tasks.grasp.api import plan_grasp
@@ -51,6 +52,7 @@ def test_a_handle_on_its_plate_keeps_its_convex_pieces() -> None:
     assert abs(bar_alone.primitive.size[0] - 0.012) < 0.001
 
 
+@pytest.mark.slow
 def test_a_grasp_planned_on_a_fitted_cylinder_holds_the_exact_cylinder() -> None:
     rng = np.random.default_rng(6)
     pts, _ = sample_cylinder_surface(0.03, 0.07, 3000, rng)

@@ -119,6 +119,7 @@ def test_replan_grasp_plans_on_the_target(bottle_model: shapes.ShapeModel) -> No
     assert not any("re-planning failed" in w for w in out.warnings)
 
 
+@pytest.mark.slow
 def test_replan_failure_warns_or_refuses_under_strict(
     bottle_model: shapes.ShapeModel, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -139,6 +140,7 @@ def test_replan_failure_warns_or_refuses_under_strict(
         transfer_descriptor(desc, pts, pts, ref, params=FAST, replan_grasp=True, strict=True, rng=rng)
 
 
+@pytest.mark.slow
 def test_replan_without_force_closure_keeps_the_carried_grasp(bottle_model: shapes.ShapeModel) -> None:
     rng = np.random.default_rng(54)
     desc = make_descriptor(bottle_model, "a" * 64)
@@ -186,6 +188,7 @@ def test_unusable_clouds_are_refused(points: np.ndarray, match: str) -> None:
         check_model(points, "source model")
 
 
+@pytest.mark.slow
 def test_flat_sheet_is_a_poor_fit(bottle_model: shapes.ShapeModel) -> None:
     rng = np.random.default_rng(71)
     sheet = np.column_stack([rng.uniform(-0.1, 0.1, 3000), rng.uniform(-0.1, 0.1, 3000), np.zeros(3000)])
