@@ -25,6 +25,10 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
+from bench.learn_corpus.case import Case, write_case  # noqa: E402
+from bench.learn_corpus.real import real_cases_at  # noqa: E402
+from bench.learn_corpus.score import score  # noqa: E402
+from bench.learn_corpus.stress import DEV_SEEDS, HELDOUT_SEEDS, dev_cases, heldout_cases  # noqa: E402
 from schemas.descriptor import Primitive  # noqa: E402
 from tasks.errors import FitError  # noqa: E402
 from tasks.fit.select import eigenvalue_ratio  # noqa: E402
@@ -277,12 +281,85 @@ def real(store: Store, folder: Path, quick: bool) -> None:
         print(f"  wrong (ours): {w}")
 
 
+@dataclass
+class CorpusErrors:
+    """Chains right and per-primitive errors of one method over a measuring corpus (``bench/learn_corpus``)."""
+
+    right: int = 0
+    right_strict: int = 0
+    cases: int = 0
+    direction_deg: list[float] = field(default_factory=list)
+    position_mm: list[float] = field(default_factory=list)
+    extent: list[float] = field(default_factory=list)
+    wrong: list[str] = field(default_factory=list)
+    seconds: float = 0.0
+
+
+def _corpus_run(store: Store, folder: Path, cases: list[Case], title: str) -> None:
+    """Ours and the paper's method (true k) over corpus cases written as MCAP recordings; one table."""
+    ours, paper = CorpusErrors(), CorpusErrors()
+    for i, case in enumerate(cases):
+        path = folder / f"corpus-{i}.mcap"
+        write_case(case, path)
+        k = 2 * len(case.truth) + 1
+        for who, params in ((ours, LearnParams()), (paper, LearnParams.paper_baseline(k=k))):
+            chain, sec, _ = _learn(store, path, params)
+            got = score([p.to_dict() for p in chain], case)
+            who.cases += 1
+            who.seconds += sec
+            who.right += bool(got["right"])
+            who.right_strict += bool(got["right"] and got.get("radius_ok") is not False)
+            if not (got["right"] and got.get("radius_ok") is not False) and who is ours:
+                who.wrong.append(f"{case.name}: {got['kinds_learned']} (truth {got['kinds_truth']})")
+            for m in got["primitives"]:
+                if m.get("direction_deg") is not None:
+                    who.direction_deg.append(m["direction_deg"])
+                if m.get("position_mm") is not None:
+                    who.position_mm.append(m["position_mm"])
+    n = len(cases)
+    print(f"\n{title}: {n} cases")
+    print(f"{'figure (median / p95 / worst)':<34} {'ours':>26} {'paper (true k)':>26}")
+    for name, a, b in (
+        ("chains right (kinds, count, order)", f"{ours.right}/{n}", f"{paper.right}/{n}"),
+        ("... and radius within tolerance", f"{ours.right_strict}/{n}", f"{paper.right_strict}/{n}"),
+        ("axis direction error, deg", _stats(ours.direction_deg), _stats(paper.direction_deg)),
+        ("axis position error, mm", _stats(ours.position_mm), _stats(paper.position_mm)),
+        ("learn time per recording, s", f"{ours.seconds / max(n, 1):.2f}", f"{paper.seconds / max(n, 1):.2f}"),
+    ):
+        print(f"{name:<34} {a:>26} {b:>26}")
+    for w in ours.wrong:
+        print(f"  wrong (ours): {w}")
+
+
+def stress(store: Store, folder: Path, quick: bool) -> None:
+    """The stress corpus (``bench/learn_corpus/stress.py``): development seeds, then held-out seeds."""
+    per_seed = 4 if quick else 20
+    _corpus_run(store, folder, dev_cases(per_seed), f"Stress corpus, development seeds {DEV_SEEDS}")
+    _corpus_run(store, folder, heldout_cases(per_seed), f"Stress corpus, held-out seeds {HELDOUT_SEEDS}")
+
+
+def real_corpus(store: Store, folder: Path, quick: bool) -> None:
+    """Every labelled track of ``../shared/real`` at 10, 30 and 100 Hz (``bench/learn_corpus/real.py``). The
+    Sturm mechanisms_iros_2010 tracks were used while developing; the others are reported apart."""
+    cases = real_cases_at()
+    if quick:
+        cases = cases[::9]
+    dev = [c for c in cases if "mechanisms_iros_2010" in c.name]
+    held = [c for c in cases if "mechanisms_iros_2010" not in c.name]
+    _corpus_run(store, folder, dev, "Real tracks (mechanisms_iros_2010: development) at 10, 30, 100 Hz")
+    _corpus_run(store, folder, held, "Real tracks (second set, articulation_models, CHAMP: held out) at 10, 30, 100 Hz")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument(
         "--quick", action="store_true", help="4 synthetic demonstrations, 12 pbd synth recordings and 4 real tracks"
     )
-    parser.add_argument("--only", choices=("synthetic", "synth", "real"), help="run one section (default: all three)")
+    parser.add_argument(
+        "--only",
+        choices=("synthetic", "synth", "real", "stress", "corpus-real"),
+        help="run one section (default: all)",
+    )
     args = parser.parse_args()
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="pbd-bench-learn-") as tmp:
@@ -294,6 +371,10 @@ def main() -> None:
             simulated(store, folder, args.quick)
         if args.only in (None, "real"):
             real(store, folder, args.quick)
+        if args.only in (None, "stress"):
+            stress(store, folder, args.quick)
+        if args.only in (None, "corpus-real"):
+            real_corpus(store, folder, args.quick)
     print(f"\ntotal {time.perf_counter() - t0:.1f} s")
 
 

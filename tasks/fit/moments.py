@@ -23,6 +23,8 @@ class SpanResiduals:
     """Residual sums of squares (m^2) of the best still, line and circle model for a batch of spans."""
 
     n: FloatArray
+    """(b,) effective sample counts (sum of the samples' weights)."""
+    count: FloatArray
     """(b,) sample counts."""
     still: FloatArray
     """(b,) sum of squared distances to the centroid, m^2."""
@@ -39,6 +41,8 @@ class PrefixMoments:
     """Cumulative raw moments of one marker's samples (metres, relative to ``origin``)."""
 
     origin: FloatArray
+    cum0: FloatArray
+    """(n+1,) cumulative sample weights"""
     cum1: FloatArray
     """(n+1, 3)"""
     cum2: FloatArray
@@ -54,15 +58,18 @@ class PrefixMoments:
         return int(self.cum1.shape[0] - 1)
 
 
-def prefix_moments(points: Points) -> PrefixMoments:
-    """Prefix sums of p, p⊗p, p⊗p⊗p, p⊗p⊗p⊗p for (n, 3) finite points (metres)."""
+def prefix_moments(points: Points, weights: FloatArray | None = None) -> PrefixMoments:
+    """Weighted prefix sums of 1, p, p⊗p, p⊗p⊗p, p⊗p⊗p⊗p for (n, 3) finite points (metres) with (n,) sample
+    weights (default 1: each sample one independent observation)."""
     origin = points.mean(axis=0) if len(points) else np.zeros(3)
     q = points - origin
     n = len(q)
+    w = np.ones(n) if weights is None else np.asarray(weights, dtype=np.float64)
     zero = np.zeros
-    m2 = np.einsum("ni,nj->nij", q, q)
+    m2 = np.einsum("n,ni,nj->nij", w, q, q)
     m3 = np.einsum("nij,nk->nijk", m2, q)
-    cum1 = np.concatenate([zero((1, 3)), np.cumsum(q, axis=0)])
+    cum0 = np.concatenate([zero(1), np.cumsum(w)])
+    cum1 = np.concatenate([zero((1, 3)), np.cumsum(q * w[:, None], axis=0)])
     cum2 = np.concatenate([zero((1, 3, 3)), np.cumsum(m2, axis=0)])
     cum3 = np.concatenate([zero((1, 3, 3, 3)), np.cumsum(m3, axis=0)])
     del m2
@@ -76,7 +83,7 @@ def prefix_moments(points: Points) -> PrefixMoments:
         np.cumsum(block, axis=0, out=cum4[start + 1 : stop + 1])
         cum4[start + 1 : stop + 1] += running
         running = cum4[stop].copy()
-    return PrefixMoments(origin, cum1, cum2, cum3, cum4)
+    return PrefixMoments(origin, cum0, cum1, cum2, cum3, cum4)
 
 
 def concat_moments(parts: list[PrefixMoments]) -> tuple[PrefixMoments, IntArray]:
@@ -85,6 +92,7 @@ def concat_moments(parts: list[PrefixMoments]) -> tuple[PrefixMoments, IntArray]
     offsets = np.cumsum([0] + [p.cum1.shape[0] for p in parts[:-1]]).astype(np.int64)
     stacked = PrefixMoments(
         np.zeros(3),
+        np.concatenate([p.cum0 for p in parts]),
         np.concatenate([p.cum1 for p in parts]),
         np.concatenate([p.cum2 for p in parts]),
         np.concatenate([p.cum3 for p in parts]),
@@ -97,8 +105,9 @@ def span_residuals(pm: PrefixMoments, start: IntArray, stop: IntArray) -> SpanRe
     """Still / line / circle residual sums of squares of sample spans ``[start, stop)`` (vectorised)."""
     start = np.asarray(start, dtype=np.int64)
     stop = np.asarray(stop, dtype=np.int64)
-    n = (stop - start).astype(np.float64)
-    safe = np.maximum(n, 1.0)
+    count = (stop - start).astype(np.float64)
+    n = pm.cum0[stop] - pm.cum0[start]
+    safe = np.where(n > 0, n, 1.0)
     m1 = (pm.cum1[stop] - pm.cum1[start]) / safe[:, None]
     m2 = (pm.cum2[stop] - pm.cum2[start]) / safe[:, None, None]
     m3 = (pm.cum3[stop] - pm.cum3[start]) / safe[:, None, None, None]
@@ -137,7 +146,7 @@ def span_residuals(pm: PrefixMoments, start: IntArray, stop: IntArray) -> SpanRe
         circle = n * (evals[:, 0] + np.where(r2 > 0, alg / (4.0 * r2), np.inf))
     del m2c
     circle = np.where(np.isfinite(circle), circle, np.inf)
-    return SpanResiduals(n=n, still=still, line=line, circle=circle, radius=radius)
+    return SpanResiduals(n=n, count=count, still=still, line=line, circle=circle, radius=radius)
 
 
 def _centred_quartic(m1: FloatArray, m2: FloatArray, m3: FloatArray, m4: FloatArray, proj: FloatArray) -> FloatArray:

@@ -61,6 +61,18 @@ def _on_grid(t: FloatArray, p: Points, grid: FloatArray) -> tuple[Points, FloatA
     return pts, ok
 
 
+def kabsch(reference: Points, current: FloatArray) -> FloatArray:
+    """(g, 3, 3) rotations that best map the centred (m, 3) ``reference`` onto each centred (g, m, 3) ``current``
+    configuration (least squares, proper rotations; Kabsch 1976), batched over g."""
+    cov = np.einsum("gmi,mj->gij", current, reference)
+    u, _, vt = np.linalg.svd(cov)
+    sign = np.sign(np.linalg.det(u @ vt))
+    sign[sign == 0] = 1.0
+    u[:, :, 2] *= sign[:, None]
+    out: FloatArray = u @ vt
+    return out
+
+
 def part_motion(times: list[FloatArray], tracks: list[Points]) -> PartMotion | None:
     """Orientation over time of the rigid part carried by markers (times in s, (n_m, 3) points in m), or None
     with fewer than ``MIN_MARKERS`` markers seen together, or a configuration too nearly collinear."""
@@ -79,12 +91,9 @@ def part_motion(times: list[FloatArray], tracks: list[Points]) -> PartMotion | N
     reference -= reference.mean(axis=0)
     if float(np.linalg.svd(reference, compute_uv=False)[1]) / np.sqrt(len(reference)) < MIN_SPREAD_M:
         return None
-    rotvecs = np.empty((len(pts), 3))
-    rss_best = np.empty(len(pts))
-    for g in range(len(pts)):
-        rot, _ = Rotation.align_vectors(centred[g], reference)
-        rotvecs[g] = rot.as_rotvec()
-        rss_best[g] = float(((centred[g] - rot.apply(reference)) ** 2).sum())
+    rots = kabsch(reference, centred)
+    rotvecs = Rotation.from_matrix(rots).as_rotvec()
+    rss_best = ((centred - np.einsum("gij,mj->gmi", rots, reference)) ** 2).sum(axis=(1, 2))
     rss_no_turn = ((centred - reference[None]) ** 2).sum(axis=(1, 2))
     return PartMotion(grid[ok], rotvecs, centroids, reference, rss_best, rss_no_turn, centred)
 
@@ -95,15 +104,13 @@ def rss_about_axis(motion: PartMotion, axis_dir: Vector3) -> FloatArray:
     d = unit(axis_dir)
     ref = motion.reference
     ref_perp = ref - np.outer(ref @ d, d)
-    out = np.empty(len(motion.t_s))
-    for g in range(len(motion.t_s)):
-        cur = motion.current[g]
-        cur_perp = cur - np.outer(cur @ d, d)
-        cross = float(np.sum(np.cross(ref_perp, cur_perp) @ d))
-        dot = float(np.sum(ref_perp * cur_perp))
-        angle = float(np.arctan2(cross, dot))
-        rot = Rotation.from_rotvec(angle * d)
-        out[g] = float(((cur - rot.apply(ref)) ** 2).sum())
+    cur = motion.current
+    cur_perp = cur - np.einsum("gm,i->gmi", cur @ d, d)
+    cross = (np.cross(ref_perp[None], cur_perp) @ d).sum(axis=1)
+    dot = (ref_perp[None] * cur_perp).sum(axis=(1, 2))
+    angle = np.arctan2(cross, dot)
+    rots = Rotation.from_rotvec(np.outer(angle, d)).as_matrix()
+    out: FloatArray = ((cur - np.einsum("gij,mj->gmi", rots, ref)) ** 2).sum(axis=(1, 2))
     return out
 
 

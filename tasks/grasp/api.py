@@ -62,9 +62,9 @@ FALLBACK_CHECKS = 5
 ROUNDS = 2
 """Annealing rounds tried while no near force closure holds (the second on the model's pieces drawn anew). On a part
 with a bar or a mount, the grasps slid along the bar and the pinches (``_slid``, ``_pinch``) are checked before the
-second round and the redraws. Over ``bench/grasp.py --seed 7 11 13``, 34 such parts reached the second round: it and
-the redraws found the grasp on one (door seed 1, seed 13: a grasp the benchmark's test then dropped) and cost 1.5-4 s
-each plan; the slid grasps and the pinches, checked after them, found it on the other 33."""
+second round and the redraws: where a bar's plate or a lever's leaf stops fingers wrapping from near the
+demonstrated palm, another annealing round near that palm (1.5-4 s a plan) meets the same obstacle, while a slid
+grasp or a pinch avoids it."""
 REDRAWS = 4
 """Then rounds of the demonstrated approach's poses alone (no annealing, about 0.2 s each), each on pieces drawn
 anew: which of them close into force closure on a scan depends on how its convex pieces fall."""
@@ -72,16 +72,16 @@ DYNAMIC_CHECKS = 24
 """On a part with a mount (a handle or a lever) or a fitted box or cylinder, when none of the first round's force
 closures holds: up to this many more hold checks, with a budget of their own (``hold_budget.CHECK_BUDGET_S``; most fail
 within 0.1 s simulated), of its near grasps without a static force closure. Closed on a static model the fingers push a
-bar away from the palm and touch it on one side; squeezing, they hold it (``squeezed``): door seed 1's lever held with
-spread π/2 and the palm 20 mm behind the demonstrated one, epsilon 0 static, 0.068 squeezed. On the convex pieces of
-parts without a mount the pass found no hold the benchmark confirmed and took a bottle cap's plan to 5.6 s CPU; on a
-fitted primitive (checks of ``PRIMITIVE_CHECK_CYCLES``) it found box 58x59x114 mm's (seed 7), plans within 3.3 s."""
+bar away from the palm and touch it on one side; squeezing, they hold it (``squeezed``): a lever grasp may show
+epsilon 0 closed statically and a force closure once squeezed. Not run on the convex pieces of a part without a
+mount: there the squeezed closures it finds do not carry over to the real surface, and the pass lengthens a plan
+by seconds; on a fitted primitive it runs, with checks of ``PRIMITIVE_CHECK_CYCLES``."""
 PINCH_CHECKS = 10
 """When no grasp near the demonstration holds: hold checks of fingertip pinches held back on the demonstrated
 approach (``pinch.py``), with a budget of their own; a pinch without a static force closure is kept when it shows
-one once squeezed (``squeezed``). On the benchmark's handles standing 18-30 mm in front of their plates, the
-fingers wrapping the bar from near the demonstrated palm meet the plate. On each of the five that no near grasp
-held, one of these pinches (from 70-90 mm) held under the planner's check and under the benchmark's test."""
+one once squeezed (``squeezed``). On a handle standing 18-30 mm in front of its plate, fingers wrapping the bar
+from near the demonstrated palm meet the plate before they squeeze; a palm held back 70-90 mm reaches the bar with
+the fingertips, clear of the plate (``pinch.py``)."""
 SLIDE_CHECKS = 16
 """On a mounted part whose bar was found (``ObjectModel.cylinder``), when no grasp near the demonstration holds it
 firmly: hold checks, with a budget of their own, of the grasps slid along the bar (``slide.py``; most fail within
@@ -92,10 +92,9 @@ pinches rolled ``pinch.ROLLED_PINCH_RAD``, only of those with a force closure (s
 each to find), with a budget of their own."""
 SQUARE_PINCH_CHECKS = 6
 """Hold checks of the pinches square to the part's bar (``bar_pinch.square_pinches``), only of those with a force
-closure, with a budget of their own, before the pinches of the demonstrated palm's orientation: on the benchmark's
-handles the demonstrated palm is tilted and rolled 10-30° off the bar's square, and its pinches that held under the
-check rolled the exact bar out of the fingers on two of them (r10 l107, seed 7; r9 l160, seed 13), where the square
-pinches held it (``bench/grasp.py``: 91/99 holds to 95/99 over seeds 7, 11 and 13)."""
+closure, with a budget of their own, before the pinches of the demonstrated palm's orientation: a demonstrated palm
+is commonly tilted and rolled 10-30° off the bar's square, and tilted fingertips meet a round bar at different
+heights, so a squeeze rolls it out of them; square to the bar they close on its sides at its widest."""
 NEIGHBOUR_CHECKS = 8
 """When a pinch held without a force closure: hold checks of its neighbours (``pinch.pinch_neighbours``), with a
 budget of their own."""
@@ -104,8 +103,8 @@ SHAKE_BUDGET = 6
 ``hold_budget.CHECK_BUDGET_S`` simulated seconds of shaking."""
 CHECK_MAX_ANGLE_RAD = math.radians(15.5)
 """Only near force closures turned at most 15° from the demonstrated palm (the demonstrated approach's rolls,
-``planner.LINE_POSES``) are checked and chosen for holding: a grasp held under the check at 24° from the
-demonstrated palm closed on nothing in execution (a sliding door's handle, ``bench/simulate.py``)."""
+``planner.LINE_POSES``) are checked and chosen for holding: a grasp turned further from the demonstrated palm
+can hold under the check on the planner's model and close on nothing in execution (a thin bar handle)."""
 
 
 def redecomposed(model: ObjectModel, rng: np.random.Generator) -> ObjectModel:
@@ -203,7 +202,7 @@ def plan_on_model(
     closest."""
     pos, quat = check_seed(seed_position, seed_quat_xyzw)
     seed_rot = Rotation.from_quat(quat).as_matrix()
-    # a fitted primitive is cheap to shake: checks as long as the benchmark's program
+    # a fitted primitive is cheap to shake: three cycles, so slow slip shows before it is chosen
     loose: list[GraspCandidate] = []
     kept_back = loose if model.cylinder is not None else None  # a round bar may roll out of a grasp that held 6 s
     budget = HoldBudget(

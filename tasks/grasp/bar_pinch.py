@@ -2,15 +2,12 @@
 (``ObjectModel.cylinder``, ``part_cylinders``), through its axis, the fingers closing across it.
 
 The pinches of ``pinch.py`` keep the demonstrated palm's orientation, which the demonstrator holds 10-15° off the
-bar's square; tilted, the three fingertips meet a round bar at different heights and a squeeze rolls it out. On the
-benchmark's handles r12 l140 and r14 l163 (seed 11), on their exact shapes, no palm on the bar's square 0-60 mm
-before it held (the fingers meet the plate, 19 mm behind the bar, before the bar), while the square pinch with
-spread 0 from 80 mm held, within 0.6 mm and 2.2°, and from 70 and 90 mm did not: a pinch holds in a window of
-palm distances 10-15 mm wide, where the fingertips close on the bar's sides at its widest. The pinches are checked
-from the middle of the fingertips' reach (80 mm) outwards; on the benchmark's thin-gap handles the planner's model
-and the exact shapes agreed on which of them hold (``bench/grasp.py``, seeds 7, 11 and 13).
+bar's square; tilted, the three fingertips meet a round bar at different heights and a squeeze rolls it out. Square
+to the bar, a palm 0-60 mm before it puts the fingers against the plate behind a bar that stands close to it, and
+the fingertips close on the bar's sides at its widest only in a window of palm distances 10-15 mm wide, around
+the middle of the fingertips' reach (80 mm); the pinches are checked from there outwards.
 
-The palm is rolled and tilted off the demonstrated one (up to 30° on the benchmark), which the demonstration does
+The palm may be rolled and tilted up to ``MAX_TILT_RAD`` off the demonstrated one, which the demonstration does
 not fix for a bar: a hand wraps a bar at any roll about the square. These pinches come only after every grasp
 near the demonstration failed the planner's hold check (``tasks.grasp.api``).
 """

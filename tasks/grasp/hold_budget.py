@@ -28,15 +28,13 @@ CHECK_BUDGET_S = 20.0
 """Simulated seconds of shaking the hold checks of one plan (``api.SHAKE_BUDGET`` of them) may take in all (a
 check stops when the part slips; one that holds takes ``CHECK_LENGTH_S``, 0.08-0.12 s CPU per simulated second on a
 scan's convex pieces). A further round is searched, and a check started, only while a whole check still fits in what
-is left. At 13 s, two slips after 3.6 and 4.9 s left a box no room for a third check, and door seed 0's squeezed-grasp
-pass ran out before the grasp that held."""
+is left: about three whole checks, so that one or two checks that slip part-way still leave room for a whole one."""
 FIRM_SHIFT_M = 0.0025
 FIRM_TURN_RAD = math.radians(2.5)
 """On a part planned on its bar: a grasp that held under the check but let the part move or turn more than these
 (half the check's tolerances) is kept back while a firmer one may be found (the later passes, then the grasps slid
-along the bar, then the pinches), and chosen only when none is. Three fingertips on a door lever's round arm
-turned it 3.4-3.7° in the 6 s check and past 10° in the benchmark's 16 s; slid 25 mm along the arm and held back
-20 mm, the grasp that held turned it 1-2°."""
+along the bar, then the pinches), and chosen only when none is: a round bar that turns a few degrees in the 6 s
+check goes on rolling in a longer shake, while a firm grasp stays within 1-2°."""
 HELD_MU = 0.8
 """Friction coefficient of the hold check's contacts: the part's 0.8 (``shake.ShakeParams.friction``) times the
 finger pads' 1.0, as Bullet combines them. The planner's qualities use ``quality.DEFAULT_MU`` (0.5); a grasp that
@@ -147,7 +145,6 @@ def with_closure(candidates: Iterable[GraspCandidate], model: ObjectModel, mu: f
 def held_closure(held: Iterable[GraspCandidate], model: ObjectModel) -> GraspCandidate | None:
     """The first of ``held`` (grasps that held under the hold check without a force closure, even squeezed, at the
     planner's friction) that shows one at the check's own friction ``HELD_MU`` (``with_closure``), its qualities at
-    that friction (``GraspQuality.mu``); else None. The benchmark's upright cylinder r20 (seed 7): a near grasp held
-    within 2.0 mm and 2.1° under the 15 s check, no force closure at 0.5, epsilon 0.023 at 0.8, and it held the
-    benchmark's test."""
+    that friction (``GraspQuality.mu``); else None. A grasp that held through the check was held at that friction,
+    so its force closure there is the consistent judgement of it."""
     return next((cand for cand, _ in with_closure(held, model, HELD_MU)), None)

@@ -21,10 +21,9 @@ CHECK_CYCLES = 1.0
 turn amplitude (rad) and frequency (Hz), cycles of each motion (whole cycles: A (1 - cos ωt) ends where it
 began)."""
 PRIMITIVE_CHECK_CYCLES = 3.0
-"""Cycles of each motion when the model is a fitted box or cylinder (15 s simulated, about as long as the
-benchmark's 16 s program): a primitive costs a fraction of a scan's convex pieces per simulated second (a plan
-on one took 0.6-2.4 s CPU with these checks), and slip that stayed under 5 mm in one cycle went past 10 mm in
-three (box 74x86x90 mm, ``bench/grasp.py`` seed 7)."""
+"""Cycles of each motion when the model is a fitted box or cylinder (15 s simulated): a primitive costs a fraction
+of a scan's convex pieces per simulated second, and slow slip that stays under 5 mm in one cycle can pass 10 mm in
+three."""
 
 
 def check_length_s(cycles: float = CHECK_CYCLES) -> float:
@@ -47,8 +46,8 @@ def hold_check(palm_quat_xyzw: FloatArray, cycles: float = CHECK_CYCLES) -> Shak
     close round: a lever slides along it) laid horizontal, or of its y axis when x is near vertical; in each
     phase translations along world x, y and z with 6.5 m/s² peaks at 3 Hz and a turn of the palm of 7.5° about
     the world diagonal at 2 Hz, ``cycles`` each (one: 6 s in all), within 5 mm and 5°. Run on the planner's own
-    object model. The former check (world gravity only, 4.9 m/s² peaks, 10 mm and 10°) passed fingertip grasps
-    that a longer, harsher shake drops."""
+    object model. The tilts and the palm turn load a fingertip grasp along and about the bar, the directions it
+    slips in, which world gravity and translations alone do not."""
     rot = Rotation.from_quat(palm_quat_xyzw).as_matrix()
     down = np.array([0.0, 0.0, -1.0])
     side = rot[:, 0] - float(rot[:, 0] @ down) * down

@@ -38,8 +38,8 @@ RANSAC_ITERATIONS = 150
 PLANES = 3
 """Planes tried, largest first."""
 FIT_POINTS = 600
-"""Points (an even subsample) each plane is fitted on; every point is then tested against it. On the benchmark's
-3000-point scans the time goes to scikit-learn's per-trial overhead, not to the point count."""
+"""Points (an even subsample) each plane is fitted on; every point is then tested against it. On a scan of a few
+thousand points the time goes to scikit-learn's per-trial overhead, not to the point count."""
 
 
 def find_mount(points: Points, palm_position: Vector3, approach: Vector3) -> BoolArray:

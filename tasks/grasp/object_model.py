@@ -8,8 +8,9 @@ and unlike a triangle mesh they also work for a free (dynamic) body in the shake
 PCA normals of the k nearest neighbours, oriented by propagation along a minimum spanning tree (Hoppe et al.;
 open3d's tangent-plane orientation does the same but took 0.7 s on 1300 points
 here, this 20 ms). A box or cylinder replaces the pieces when it explains the points (``build_object_model``,
-``tasks.grasp.primitive_fit``) or when it is known (a benchmark's truth); on a part with a mount, the bar found in it
-(``tasks.grasp.part_cylinders``) is one exact piece, a 64-sided prism, beside the convex pieces of the rest.
+``tasks.grasp.primitive_fit``) or when it is known (the true shape of a test object); on a part with a mount, the
+bar found in it (``tasks.grasp.part_cylinders``) is one exact piece, a 64-sided prism, beside the convex pieces of
+the rest.
 """
 
 from __future__ import annotations
@@ -302,9 +303,8 @@ def build_object_model(
     mount (``ObjectModel.cap``). Without a mount and with
     ``fit``, a box or cylinder whose surface explains the points (``tasks.grasp.primitive_fit``: a carton, a
     bottle, a can) becomes the model's ``primitive`` instead of convex pieces, as GraspIt plans on shape primitives
-    (Miller et al. 2003): the pieces' edges and seams, which fall differently with each k-means draw, decided
-    which grasps held (``bench/grasp.py`` seeds 7, 11, 13: 36/42 boxes and cylinders held on pieces, 39/42 on the
-    fit with the planner's 6 s check, 41/42 with its checks on primitives, ``tasks.grasp.api.plan_on_model``)."""
+    (Miller et al. 2003): the pieces' edges and seams fall differently with each k-means draw, and a fingertip that
+    catches on a seam holds in the planner's check where the real smooth surface lets it slide."""
     pts = scan = check_object_points(points)
     if normals is None:
         pts = voxel_downsample(pts, voxel_m)
@@ -346,7 +346,7 @@ def build_object_model(
 def labelled_model(
     part: Points, mount: Points, rng: np.random.Generator, *, viewpoint: Vector3, voxel_m: float = 0.004
 ) -> ObjectModel:
-    """A model whose mount is known (a benchmark's truth): ``part`` and ``mount`` (n, 3) world m, each
+    """A model whose mount is known (the true shapes of a test object): ``part`` and ``mount`` (n, 3) world m, each
     downsampled to ``voxel_m``, normals of the whole oriented away from ``viewpoint``, each cut into its own
     convex pieces (the part's first); centre and radius are the part's."""
     grip = voxel_downsample(check_object_points(part, "part points"), voxel_m)

@@ -7,7 +7,7 @@ normals; the centre where the two normal lines meet in the plane across the axis
 the tolerance of its side whose normals point away from its axis; the best one's inliers (the longest run of them
 along the axis) refined and checked by ``primitive_fit.fit_cylinder`` and its tolerances. Planned on as one
 exact piece (a 64-sided prism, ``prism_vertices``) beside the convex pieces of the rest of the part, so the bar's
-surface no longer depends on how k-means cut it.
+surface does not depend on how k-means cuts it.
 """
 
 from __future__ import annotations

@@ -4,11 +4,9 @@ demonstration holds.
 The Barrett fingers are 126 mm long on knuckles 50 mm either side of the palm centre: the fingertips close at
 80-100 mm in front of the palm, and a finger curled round a bar reaches 45 mm or more in front of it. On a handle
 standing 18-30 mm in front of its plate, fingers that wrap the bar from a palm near it therefore meet the plate,
-and a finger the mount stops cannot squeeze (``shake.grip``): on two of the benchmark's handles none of 720 palm
-poses on the bar's axis, touching it to 30 mm before it, held. Held back on the demonstrated approach, 60-100 mm
-from where it meets the part, the open fingertips close on the bar's sides, clear of the plate, and pinch it: on
-all five of the benchmark's handles that no near grasp held, one such pinch held under the planner's hold check
-and under the benchmark's longer test on an independent model.
+and a finger the mount stops cannot squeeze (``shake.grip``): no palm from touching the bar to 30 mm before it
+holds such a handle. Held back on the demonstrated approach, 60-100 mm from where it meets the part, the open
+fingertips close on the bar's sides, clear of the plate, and pinch it.
 
 The palm keeps the demonstrated orientation and lies on the demonstrated approach (the approach distance d of
 GraspIt!'s search space, whose range reaches 200 mm); it is not moved on to contact, since the fingertips, not the
@@ -31,9 +29,8 @@ PINCH_DISTANCES_M = (0.06, 0.07, 0.08, 0.09, 0.10)
 80-100 mm in front of the palm, so a bar 20-30 mm across is pinched at its sides from 70-90 mm."""
 PINCH_SPREADS_RAD = (0.0, math.pi / 2)
 """Spreads (rad), in order of preference: fingers 1 and 2 opposite the thumb (three fingertips across the bar, two
-against one, which resist its turning about the pinch), then face to face. On a 20 mm bar 30 mm before its plate
-the spread-0 pinch from 80 mm held on three models sampled anew, the one at π/2 from 70 mm that the planner's
-check passed held on one."""
+against one, which resist its turning about the pinch), then face to face (two opposed fingertips leave the bar
+free to turn about the line between them)."""
 
 
 def pinch_candidates(
@@ -60,10 +57,8 @@ def pinch_candidates(
 
 ROLLED_PINCH_RAD = (math.radians(-15.0), math.radians(15.0))
 """Rolls (rad) about the demonstrated approach of the last pinches tried (the demonstrated approach's rolls,
-``planner.LINE_POSES``). On the benchmark's handle r13 l128 (seed 7) the pinches of the demonstrated palm that held
-showed no force closure, even squeezed, nor did their neighbours; of its 20 rolled pinches six showed one, two of
-those held under the planner's check (the one from 90 mm rolled -15° within 0.6 mm and 0.8°), and both held the
-exact handle under the benchmark's test."""
+``planner.LINE_POSES``). Rolled about the approach, the fingertips meet a bar along other lines of its surface,
+where contacts that lay in one plane and showed no force closure, even squeezed, may close."""
 NEIGHBOUR_STEP_M = 0.005
 NEIGHBOUR_ROLL_RAD = math.radians(15.0)
 """Steps of ``pinch_neighbours``: the palm 5 mm nearer or farther on the approach, rolled 15° either way about it
@@ -77,8 +72,7 @@ def pinch_neighbours(
     its spread with the palm rolled ``NEIGHBOUR_ROLL_RAD`` either way, moved ``NEIGHBOUR_STEP_M`` along the
     approach, or both (rad, m; the seed palm rotation (3, 3) and position (3,) m, world, as in
     ``pinch_candidates``), in that order. Two fingertips against the thumb on a bar touch it on two lines; rolled
-    or moved, their contacts fall apart along it and may close (the benchmark's handle r13 l128: the spread-0
-    pinch from 80 mm held with no force closure, the one from 75 mm rolled -15° held with one)."""
+    or moved, their contacts fall apart along it and may close."""
     space = ApproachSpace(seed_rot, seed_pos, pivot_distance(model, seed_rot, seed_pos, params.max_pivot_m))
     moves, rolls = (-NEIGHBOUR_STEP_M, NEIGHBOUR_STEP_M), (-1.0, 1.0)
     steps = [(0.0, r) for r in rolls] + [(m, 0.0) for m in moves] + [(m, r) for m in moves for r in rolls]

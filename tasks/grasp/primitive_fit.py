@@ -56,8 +56,8 @@ LOSS_SCALE_M = 0.001
 REFINE_POINTS = 800
 """At most this many points (an even stride) drive the refinement; all are measured afterwards."""
 MAX_EVALUATIONS = 50
-"""Cap on the refinement's evaluations: true primitives converge within 15 (the benchmark's boxes and cylinders, 200
-random ones after 4 mm voxels), a cylinder fitted to a handle on its posts ran to 700 (0.35 s)."""
+"""Cap on the refinement's evaluations: a true primitive converges within about 15 from the normals' start, while
+a shape no primitive explains (a handle on its posts) wanders for hundreds and is refused anyway."""
 VOTE_NORMALS = 400
 """At most this many normals (an even stride) vote for a box's face directions."""
 VOTE_COS = math.cos(math.radians(15.0))

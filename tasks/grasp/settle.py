@@ -3,7 +3,7 @@
 The planner closes the fingers kinematically on a static model (GraspIt!'s autoGrasp). A hand that wraps a box or
 a cylinder then touches it with its finger links only: every contact presses the part away from the palm, and the
 grasp wrench space has no force closure, though the fingers, squeezing, pull the part into the palm and hold it
-(the benchmark's baseline held 18 of 21 randomised objects this way, with 3 static force closures). Settling
+(most such wraps of boxes and cylinders hold under a shake with no static force closure at all). Settling
 runs that in pybullet (DIRECT): the grasp set up as the shake test sets it up (``shake.grip``: the part a free
 body of 0.3 kg, the palm held still, the fingers driven 0.3 rad past contact with at most 1.5 N m), without
 gravity, for 0.3 s (a model with a mount is closed on whole, then the part alone is the free body). The settled
@@ -34,9 +34,9 @@ SQUEEZE = ShakeParams()
 WRAP_SETTLES = 3
 """Grasps without a static force closure settled per plan (about 0.1 s CPU each)."""
 LATE_WRAP_SETTLES = 7
-"""The next ones settled when no grasp of the first round holds (``tasks.grasp.api.plan_on_model``): the wrap
-that held the benchmark's upright cylinder r20 came from the 4th to 10th closest, its palm 41 mm further along
-the demonstrated approach than the demonstrated palm."""
+"""The next ones settled when no grasp of the first round holds (``tasks.grasp.api.plan_on_model``): a wrap whose
+palm lies further along the demonstrated approach (on a tall cylinder, tens of mm) ranks behind the closest
+three."""
 MAX_SHIFT_M = 0.02
 """A settled wrap counts only when the part moved at most 20 mm into the hand: pulled further, the static pose
 was far from a grasp and where the part ends up is the solver's chance (a microwave handle's crop pulled 30 mm

@@ -15,8 +15,7 @@ exceeded.
 
 Other programs (``ShakeParams.gravity`` and ``ShakeParams.motions``): gravity in several directions one phase
 after another (each phase settles 0.5 s, then runs the motions), and motions of any direction, amplitude,
-frequency and length, translations or turns of the palm about an axis through it (``Motion``). The benchmark
-scores with such a program of its own, drawn from its own generator (``bench/grasp.py``).
+frequency and length, translations or turns of the palm about an axis through it (``Motion``).
 """
 
 from __future__ import annotations
@@ -262,4 +261,4 @@ def shake_test(model: ObjectModel, grasp: Grasp, params: ShakeParams | None = No
 QUICK_SHAKE = ShakeParams()
 """A quick check: world gravity, x, y, z and two diagonals (it stops as soon as a grasp fails it, so a failing grasp
 costs little). The planner's check when it found no force closure (``tasks.grasp.hold_check.hold_check``
-otherwise), and the benchmark's second, milder hold line."""
+otherwise)."""

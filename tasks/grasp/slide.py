@@ -2,11 +2,10 @@
 (``part_cylinders``), the demonstrated palm moved along the bar and held back on its approach.
 
 Where along a handle's bar or a lever's arm the demonstrator's hand closed says little: the bar is held anywhere
-along it. On the benchmark's door levers, modelled exactly, no grasp within 20 mm of the demonstrated palm held
-under the benchmark's test, while the demonstrated palm slid 25 or 50 mm along the arm and held back 20 mm, the
-fingers 1 and 2 face to face (spread π/2), held on both door seed 0 (benchmark seed 7) and door seed 1 (seed 11),
-within 2-6 mm and 1-8°. The palm keeps the demonstrated orientation; the fingers close from the open hand without
-an approach to contact, as the hold test closes them.
+along it. Three fingertips on a lever's round arm near the demonstrated palm can let the arm roll out under a
+long shake, while the palm slid 25-50 mm along the arm and held back 20 mm, fingers 1 and 2 face to face (spread
+π/2), closes round the arm and holds it within a few millimetres and degrees. The palm keeps the demonstrated
+orientation; the fingers close from the open hand without an approach to contact, as the hold test closes them.
 """
 
 from __future__ import annotations

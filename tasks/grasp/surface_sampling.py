@@ -1,5 +1,5 @@
 """Points sampled uniformly on the surfaces of simple shapes (metres, the shape's own frame), with outward unit
-normals: the benchmark's and the tests' stand-ins for scans of boxes, cylinders and handles."""
+normals: stand-ins for scans of boxes, cylinders and handles (tests and ``bench/grasp.py``)."""
 
 from __future__ import annotations
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import hashlib
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -16,7 +16,7 @@ import numpy as np
 from schemas.descriptor import Descriptor, Grasp, ObjectRef, Primitive
 from tasks.arrays import Points
 from tasks.errors import FitError, GraspError
-from tasks.learn.boundaries import refine_boundaries
+from tasks.learn.boundaries import refine_boundaries, trim_to_motion
 from tasks.learn.chain import (
     HAND_ONLY,
     SegmentFit,
@@ -26,8 +26,10 @@ from tasks.learn.chain import (
     primitive_fit_json,
     refine_extents,
 )
+from tasks.learn.hand import hand_by_motion
 from tasks.learn.params import LearnParams
-from tasks.learn.prepare import PreparedRecording, prepare
+from tasks.learn.prepare import PreparedRecording, is_orientation_marker, prepare
+from tasks.learn.reversals import split_reversals
 from tasks.recording.load import RecordingData
 from tasks.segment.changepoint import ChangepointParams, search
 from tasks.segment.spectral import runs_from_labels, spectral_labels
@@ -83,6 +85,8 @@ def learn_chain(rec: RecordingData, params: LearnParams, rng: np.random.Generato
         msg = f"recording lasts {duration:.3f} s, shorter than one segment ({params.min_segment_s} s)"
         raise FitError(msg, tr.name, (float(tr.t_s[0]), float(tr.t_s[-1])))
     spans = segment_spans(prep, params, rng)
+    if params.classifier == "bic" and (found := hand_by_motion(prep, spans, params) - prep.hand):
+        prep = replace(prep, hand=prep.hand | found)
     fits = [fit_span(prep, a, b, params) for a, b in spans]
     if all(f.kind == "still" for f in fits):
         names = ", ".join(tr.name for tr in prep.tracks)
@@ -90,6 +94,8 @@ def learn_chain(rec: RecordingData, params: LearnParams, rng: np.random.Generato
         raise FitError(msg, None, (spans[0][0], spans[-1][1]))
     if params.classifier == "bic":
         fits = merge_adjacent(prep, fits, params)
+        fits = split_reversals(prep, fits, params)
+        fits = trim_to_motion(prep, fits)
         fits = refine_boundaries(prep, fits)  # first: the rests then hold no slow start or stop of the motion
         fits = refine_extents(prep, fits)
         fits = drop_small(fits, params.min_motion_m)
@@ -120,7 +126,7 @@ def _primitive(f: SegmentFit) -> Primitive:
         extent=float(f.extent),
         t_start=round(f.t_start, 6),
         t_end=round(f.t_end, 6),
-        markers=f.markers,
+        markers=tuple(m for m in f.markers if not is_orientation_marker(m)),
         fit=primitive_fit_json(f),
     )
 

@@ -26,7 +26,7 @@ REST_SIGMAS = 4.0
 """The smoothed coordinate leaves the rest when it is this many of its noise sigmas from the rest level."""
 
 
-def _coordinate(f: SegmentFit, tracks: list[Track], grid: FloatArray) -> tuple[FloatArray, float] | None:
+def part_coordinate(f: SegmentFit, tracks: list[Track], grid: FloatArray) -> tuple[FloatArray, float] | None:
     """The part's coordinate on ``grid`` (rad or m; NaN where a marker is missing) and its per-sample noise."""
     cols = []
     wts = []
@@ -65,7 +65,7 @@ def _coordinate(f: SegmentFit, tracks: list[Track], grid: FloatArray) -> tuple[F
     return out, noise
 
 
-def _smooth(values: FloatArray, width: int) -> FloatArray:
+def smooth(values: FloatArray, width: int) -> FloatArray:
     """Centred moving average over ``width`` samples ignoring NaNs (NaN where none)."""
     ok = np.isfinite(values)
     kernel = np.ones(max(width, 1))
@@ -106,27 +106,79 @@ def refine_boundaries(prep: PreparedRecording, fits: list[SegmentFit]) -> list[S
         start, end = f.t_start, f.t_end
         grid = max(tracks, key=lambda tr: len(tr.t_s)).t_s
         dt = float(np.median(np.diff(grid))) if len(grid) > 1 else 0.0
-        got = _coordinate(f, tracks, grid)
+        got = part_coordinate(f, tracks, grid)
         if got is None or dt <= 0:
             continue
         coord, noise = got
         width = max(1, round(SMOOTH_S / dt))
-        smooth = _smooth(coord, width)
+        level = smooth(coord, width)
         noise /= np.sqrt(width)
         if lo is not None:
             before = (grid >= lo) & (grid < f.t_start)
-            rest = smooth[before][: max(len(smooth[before]) // 2, 1)]
+            rest = level[before][: max(len(level[before]) // 2, 1)]
             t_back = grid[before][::-1]
-            found = _departure(t_back, smooth[before][::-1], rest, noise)
+            found = _departure(t_back, level[before][::-1], rest, noise)
             start = min(start, found) if found is not None else start
         if hi is not None:
             after = (grid >= f.t_end) & (grid < hi)
-            rest = smooth[after][len(smooth[after]) // 2 :]
-            found = _departure(grid[after], smooth[after], rest, noise)
+            rest = level[after][len(level[after]) // 2 :]
+            found = _departure(grid[after], level[after], rest, noise)
             end = max(end, found) if found is not None else end
         out[i] = replace(f, t_start=float(start), t_end=float(end))
         if i > 0 and out[i - 1].kind == "still" and out[i - 1].t_end == f.t_start:
             out[i - 1] = replace(out[i - 1], t_end=float(start))
         if i + 1 < len(out) and out[i + 1].kind == "still" and out[i + 1].t_start == f.t_end:
             out[i + 1] = replace(out[i + 1], t_start=float(end))
+    return out
+
+
+def _settled(level: FloatArray, tol: float) -> tuple[int, int]:
+    """The last index before the sequence first leaves its first value by more than ``tol``, and the first index
+    from which it stays within ``tol`` of its last value (NaN-free input)."""
+    away_start = np.flatnonzero(np.abs(level - level[0]) > tol)
+    away_end = np.flatnonzero(np.abs(level - level[-1]) > tol)
+    first = int(away_start[0]) - 1 if len(away_start) else 0
+    last = int(away_end[-1]) + 1 if len(away_end) else len(level) - 1
+    return max(first, 0), min(last, len(level) - 1)
+
+
+def trim_to_motion(prep: PreparedRecording, fits: list[SegmentFit]) -> list[SegmentFit]:
+    """Each primitive's span shrunk to where its part moves: a pause before or after the motion, which the
+    change-point search left inside the primitive (too short to pay for a segment of its own), becomes a still
+    segment of the part's markers."""
+    by_name = {tr.name: tr for tr in prep.tracks}
+    out: list[SegmentFit] = []
+    for f in fits:
+        if f.kind not in ("rotation", "translation"):
+            out.append(f)
+            continue
+        names = [n for n in f.markers if n not in prep.hand] or list(f.markers)
+        tracks = [by_name[n] for n in names]
+        grid_all = max(tracks, key=lambda tr: len(tr.t_s)).t_s
+        grid = grid_all[(grid_all >= f.t_start) & (grid_all < f.t_end)]
+        got = part_coordinate(f, tracks, grid) if len(grid) >= MIN_SAMPLES else None
+        if got is None:
+            out.append(f)
+            continue
+        coord, noise = got
+        dt = float(np.median(np.diff(grid)))
+        width = max(1, round(SMOOTH_S / dt)) if dt > 0 else 1
+        level = smooth(coord, width)
+        ok = np.isfinite(level)
+        if ok.sum() < MIN_SAMPLES:
+            out.append(f)
+            continue
+        t_ok = grid[ok]
+        first, last = _settled(level[ok], REST_SIGMAS * noise / np.sqrt(width))
+        start = float(t_ok[first]) if first > 0 else f.t_start
+        end = float(t_ok[last]) if last < len(t_ok) - 1 else f.t_end
+        if end - start < SMOOTH_S:
+            out.append(f)
+            continue
+        still = frozenset(f.markers) | f.still_markers
+        if start > f.t_start:
+            out.append(SegmentFit("still", f.t_start, start, still_markers=still, note="pause before the motion"))
+        out.append(replace(f, t_start=start, t_end=end))
+        if end < f.t_end:
+            out.append(SegmentFit("still", end, f.t_end, still_markers=still, note="pause after the motion"))
     return out

@@ -24,7 +24,8 @@ from tasks.fit.rotation import RotationFit, fit_rotation
 from tasks.fit.select import KINDS, Kind, SelectParams, choose_bic, choose_eigen, model_costs
 from tasks.fit.translation import TranslationFit, fit_translation
 from tasks.learn.params import LearnParams
-from tasks.learn.prepare import MIN_SAMPLES, PreparedRecording
+from tasks.learn.prepare import MIN_SAMPLES, PreparedRecording, is_orientation_marker
+from tasks.segment.changepoint import MIN_MODEL_SAMPLES
 from tasks.segment.tracks import Track, span_indices
 
 HAND_ONLY = "only hand markers move"
@@ -53,9 +54,10 @@ def _samples(track: Track, t0: float, t1: float) -> tuple[FloatArray, Points]:
     return track.t_s[i:j], track.points[i:j]
 
 
-def _marker_kind(track: Track, t0: float, t1: float, undefined: float) -> Kind | None:
+def marker_kind(track: Track, t0: float, t1: float, undefined: float) -> Kind | None:
+    """Best model of one marker's samples over [t0, t1) (s), None with too few samples."""
     i, j = span_indices(track, t0, t1)
-    if j - i < MIN_SAMPLES:
+    if j - i < MIN_MODEL_SAMPLES:
         return None
     res = span_residuals(track.moments, np.array([i]), np.array([j]))
     costs = model_costs(
@@ -70,7 +72,8 @@ def _marker_kind(track: Track, t0: float, t1: float, undefined: float) -> Kind |
     return KINDS[int(np.argmin(costs[0]))]
 
 
-def _rigid_with(track: Track, ref: Track, t0: float, t1: float, tol: float) -> bool:
+def rigid_with(track: Track, ref: Track, t0: float, t1: float, tol: float) -> bool:
+    """Whether ``track`` keeps its distance to ``ref`` over [t0, t1) (s) within ``tol`` (std, m)."""
     t, p = _samples(track, t0, t1)
     tr, pr = _samples(ref, t0, t1)
     if len(t) < MIN_SAMPLES or len(tr) < 2:
@@ -83,7 +86,7 @@ def fit_span(
     prep: PreparedRecording, t0: float, t1: float, params: LearnParams, force: Kind | None = None
 ) -> SegmentFit:
     """Classify and fit one time span [t0, t1) (seconds) of the prepared recording."""
-    kinds = {tr.name: _marker_kind(tr, t0, t1, params.undefined_nats) for tr in prep.tracks}
+    kinds = {tr.name: marker_kind(tr, t0, t1, params.undefined_nats) for tr in prep.tracks}
     still = frozenset(n for n, k in kinds.items() if k == "still")
     moving = [tr for tr in prep.tracks if kinds[tr.name] not in (None, "still")]
     if force is not None:
@@ -94,7 +97,7 @@ def fit_span(
     all_hand = all(tr.name in prep.hand for tr in prep.tracks)
     if objects:
         group = objects + [
-            tr for tr in moving if tr.name in prep.hand and _rigid_with(tr, objects[0], t0, t1, params.rigid_tol_m)
+            tr for tr in moving if tr.name in prep.hand and rigid_with(tr, objects[0], t0, t1, params.rigid_tol_m)
         ]
     elif all_hand:
         group = moving
@@ -122,24 +125,60 @@ def fit_span(
     rf = fit_rotation(pts, 3.0 * sigma, start=(screw.pos, screw.dir) if screw is not None else None)
     if screw is not None and np.isfinite(rf.dir_std_rad) and screw.dir_std_rad > 0:
         rf = _with_screw_direction(pts, rf, screw, 3.0 * sigma)
-    n = np.array([float(tf.n)])
-    rss_still = np.array([sum(float(((p - p.mean(axis=0)) ** 2).sum()) for p in pts)])
+    evidence = _evidence_per_sample(group, t0, t1)
+    n = np.array([float(tf.n) * evidence])
+    rss_still = np.array([sum(float(((p - p.mean(axis=0)) ** 2).sum()) for p in pts)]) * evidence
     costs = model_costs(
         n,
         rss_still,
-        np.array([tf.rss]),
-        np.array([rf.rss]),
+        np.array([tf.rss * evidence]),
+        np.array([rf.rss * evidence]),
         sigma_still=sigma_hf,
         sigma_model=sigma,
         undefined=params.undefined_nats,
     )[0]
-    angle = rf.angle_rad
+    if max(rf.radii, default=0.0) < MIN_RADIUS_SIGMAS * sigma:
+        costs[KINDS.index("rotation")] = np.inf
+    angle = swept_angle(pts, rf)
     if motion is not None:
-        costs += orientation_costs(motion, rf.dir, sigma, params.undefined_nats)
-        angle = float(np.linalg.norm(net_turn(motion)))
+        costs += evidence * orientation_costs(motion, rf.dir, sigma, params.undefined_nats)
+        turn = motion.rotvecs @ rf.dir
+        angle = max(float(np.linalg.norm(net_turn(motion))), float(np.ptp(turn)) if len(turn) else 0.0)
     kind = force or choose_bic(costs, angle, sel)
     scores: dict[str, float] = {str(k): float(c) for k, c in zip(KINDS, costs, strict=True)}
     return SegmentFit(kind, t0, t1, names, still, rf, tf, scores, tf.eigenvalues, _extent(kind, rf, tf))
+
+
+MIN_RADIUS_SIGMAS = 3.0
+"""A rotation needs its largest marker radius at least this many model noise sigmas: a smaller circle does not
+resolve its centre from the samples' scatter, and a circle fitted to scatter alone has a radius of about sigma."""
+
+
+SWEPT_PERCENTILE = 2.0
+"""Percentile of a marker's angles about the axis taken as either end of its arc (a stray sample does not widen it)."""
+
+
+def swept_angle(pts: list[Points], rf: RotationFit) -> float:
+    """Widest arc (rad) that a marker's samples cover about the fitted axis: a door swung to and fro covers its
+    arc whatever its net turn."""
+    e1, e2 = perpendicular_basis(rf.dir)
+    out = 0.0
+    for p in pts:
+        q = p - rf.pos
+        ang = np.unwrap(np.arctan2(q @ e2, q @ e1))
+        lo, hi = np.percentile(ang, [SWEPT_PERCENTILE, 100.0 - SWEPT_PERCENTILE])
+        out = max(out, float(hi - lo))
+    return out
+
+
+def _evidence_per_sample(group: list[Track], t0: float, t1: float) -> float:
+    """Mean evidence weight (``tasks.segment.tracks.sample_weights``) of the group's samples in [t0, t1)."""
+    total = count = 0.0
+    for tr in group:
+        i, j = span_indices(tr, t0, t1)
+        total += float(tr.weights[i:j].sum())
+        count += j - i
+    return total / count if count else 1.0
 
 
 def _with_screw_direction(pts: list[Points], rf: RotationFit, screw: ScrewAxis, loss_scale_m: float) -> RotationFit:
@@ -179,16 +218,16 @@ def _extent(kind: Kind, rf: RotationFit | None, tf: TranslationFit | None) -> fl
     return 0.0
 
 
-def _sense_agrees(a: SegmentFit, b: SegmentFit) -> bool:
-    """Necessary for one motion of the same kind: the two axes point the same way (a door opened then closed
-    has opposite rotation directions)."""
-    if a.kind != b.kind:
-        return True  # a line-like arc next to a circle: only the union's fit can tell
-    if a.kind == "rotation" and a.rotation is not None and b.rotation is not None:
-        return float(np.dot(a.rotation.dir, b.rotation.dir)) > 0.0
-    if a.kind == "translation" and a.translation is not None and b.translation is not None:
-        return float(np.dot(a.translation.dir, b.translation.dir)) > 0.0
-    return False
+MERGE_NOISE_SIGMAS = 2.0
+"""A union's fit may exceed the mechanism tolerance by this many times the sensor noise (3-D rms) of its markers."""
+
+
+def merge_tolerance(prep: PreparedRecording, union: SegmentFit, mechanism_rms_m: float) -> float:
+    """Largest rms (m) of one primitive's fit over a union of segments: the mechanism's own departure from an ideal
+    line or circle, combined with the markers' sensor noise (camera tracks scatter by centimetres)."""
+    by_name = {tr.name: tr for tr in prep.tracks}
+    noise = max((by_name[n].sigma_hf_m for n in union.markers if n in by_name), default=0.0)
+    return float(np.hypot(mechanism_rms_m, MERGE_NOISE_SIGMAS * np.sqrt(3.0) * noise))
 
 
 def _coordinate(f: SegmentFit, pts: Points) -> FloatArray:
@@ -220,21 +259,36 @@ def _union_is_one_motion(prep: PreparedRecording, union: SegmentFit, parts: list
     return True
 
 
+def same_joint(prep: PreparedRecording, a: SegmentFit, b: SegmentFit) -> bool:
+    """Whether two primitives can be one joint's motion: the same part moves, that is the same object markers (a
+    lever pressed moves its own markers; the door swung after it moves the lever's and the leaf's). Short pieces
+    of one wobbling real motion have confidently different axes, so the axes are left to the union's fit."""
+    return {n for n in a.markers if n not in prep.hand} == {n for n in b.markers if n not in prep.hand}
+
+
 def merge_adjacent(prep: PreparedRecording, fits: list[SegmentFit], params: LearnParams) -> list[SegmentFit]:
-    """Merge consecutive primitives of one motion (only still segments between them; same sense; the union fits
-    one line or circle within ``merge_rms_m``) and refit the union. Real mechanisms are not ideal circles, so
-    the change-point search may cut one door swing into arcs of slightly different radius (Sturm's tracks)."""
+    """Merge consecutive primitives of one motion (no other primitive between them; ``same_joint``; the union fits
+    one line or circle within ``merge_tolerance``; every part moves forward along it, so an opening and the closing
+    after it stay apart) and refit the union. Real mechanisms are not ideal circles and a robot's or hand's path wobbles
+    about them, so the change-point search may cut one door swing into arcs of other radii and senses."""
     out = list(fits)
     changed = True
     while changed:
         changed = False
         moving = [i for i, f in enumerate(out) if f.kind in ("rotation", "translation")]
         for i, j in itertools.pairwise(moving):
-            if not all(out[k].kind == "still" for k in range(i + 1, j)) or not _sense_agrees(out[i], out[j]):
+            if any(out[k].kind in ("rotation", "translation") for k in range(i + 1, j)) or not same_joint(
+                prep, out[i], out[j]
+            ):
                 continue
             union = fit_span(prep, out[i].t_start, out[j].t_end, params)
+            if union.kind not in ("rotation", "translation") and union.scores:
+                # the wobble of a long real motion can cost more than "undefined" at the model noise floor;
+                # the union is one motion when the better primitive fits it within the tolerance
+                best = min(("rotation", "translation"), key=lambda k: union.scores[k])
+                union = fit_span(prep, out[i].t_start, out[j].t_end, params, force=best)  # type: ignore[arg-type]
             if union.kind in ("rotation", "translation") and _union_is_one_motion(
-                prep, union, [out[i], out[j]], params.merge_rms_m
+                prep, union, [out[i], out[j]], merge_tolerance(prep, union, params.merge_rms_m)
             ):
                 out[i : j + 1] = [replace(union, still_markers=out[i].still_markers)]
                 changed = True
@@ -331,6 +385,18 @@ def rest_position(samples: Points, sigma_m: float) -> FloatArray:
     return out
 
 
+END_WINDOW_S = 0.05
+"""Samples within this time (s) of a primitive's first or last sample are averaged into its end position where
+no rest is next to it (a reversal): at a turning point the part barely moves for that long."""
+
+
+def _end(t_s: FloatArray, seg: Points, first: bool) -> Points:
+    """(1, 3) mean position (m) of the samples within ``END_WINDOW_S`` of the first (or last) sample."""
+    near = t_s <= t_s[0] + END_WINDOW_S if first else t_s >= t_s[-1] - END_WINDOW_S
+    out: Points = seg[near].mean(axis=0)[None]
+    return out
+
+
 def refine_extents(prep: PreparedRecording, fits: list[SegmentFit]) -> list[SegmentFit]:
     """Extents from the rest positions just before and just after each primitive (when the part is still there),
     measured about / along the fitted axis; the turn of a rotation from the rigid body's orientations where the
@@ -350,8 +416,9 @@ def refine_extents(prep: PreparedRecording, fits: list[SegmentFit]) -> list[Segm
                 continue
             before = _rest_samples(tr, fits, i, -1)
             after = _rest_samples(tr, fits, i, +1)
-            head = rest_position(before, tr.sigma_hf_m)[None] if before is not None else seg[:1]
-            tail = rest_position(after, tr.sigma_hf_m)[None] if after is not None else seg[-1:]
+            t_seg = _samples(tr, f.t_start, f.t_end)[0]
+            head = rest_position(before, tr.sigma_hf_m)[None] if before is not None else _end(t_seg, seg, True)
+            tail = rest_position(after, tr.sigma_hf_m)[None] if after is not None else _end(t_seg, seg, False)
             if before is not None and after is not None:
                 rests.append((head[0], tail[0], name in prep.hand))
             path = np.concatenate([head, seg, tail])
@@ -422,8 +489,10 @@ def drop_small(fits: list[SegmentFit], min_motion_m: float) -> list[SegmentFit]:
 
 
 def primitive_fit_json(f: SegmentFit) -> dict[str, Any]:
-    """The ``fit`` block of a primitive: residual, eigenvalues, model scores, axis uncertainty."""
+    """The ``fit`` block of a primitive: residual, eigenvalues, model scores, axis uncertainty, and the evidence
+    used (marker positions; a rigid body's orientations too)."""
     out: dict[str, Any] = {"eigenvalues": list(f.eigenvalues), "scores": f.scores}
+    out["evidence"] = ["positions", "orientations"] if any(map(is_orientation_marker, f.markers)) else ["positions"]
     if f.kind == "rotation" and f.rotation is not None:
         rf = f.rotation
         out.update(rms_m=rf.rms_m, radii_m=list(rf.radii), n=rf.n)

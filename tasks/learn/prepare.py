@@ -6,6 +6,7 @@ import re
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from tasks.arrays import FloatArray, Points, Quats, StampsNs
 from tasks.errors import FitError
@@ -29,6 +30,36 @@ class PreparedRecording:
     """Rigid-body markers with poses: times (s since start) and quaternions [x, y, z, w], finite rows only."""
 
 
+ORIENTATION_LEVER_M = 0.1
+"""Distance (m) from a rigid body's origin of the three points that carry its orientation: about the size of a
+handle or a marker cluster, so an orientation error of 1 degree moves them by 1.7 mm."""
+ORIENTATION_SEPARATOR = "#axis-"
+"""Joins a rigid body's name and the body axis (x, y, z) of a point that carries its orientation."""
+
+
+def is_orientation_marker(name: str) -> bool:
+    """Whether ``name`` is a point made from a rigid body's orientation, not a recorded marker."""
+    return ORIENTATION_SEPARATOR in name
+
+
+def orientation_markers(name: str, pose: PoseTrack) -> dict[str, tuple[StampsNs, Points]]:
+    """Three points fixed in a rigid body, ``ORIENTATION_LEVER_M`` along its x, y and z axes (m, world), so that
+    its orientation enters segmentation and the rigid part's fits as marker positions; rows with an invalid
+    quaternion are NaN. Empty when no quaternion is valid."""
+    quats = np.asarray(pose.quats, dtype=np.float64)
+    norms = np.linalg.norm(quats, axis=1)
+    ok = np.isfinite(quats).all(axis=1) & np.isfinite(pose.positions).all(axis=1) & (norms > 0.5)
+    if not ok.any():
+        return {}
+    rot = np.full((len(quats), 3, 3), np.nan)
+    rot[ok] = Rotation.from_quat(quats[ok] / norms[ok, None]).as_matrix()
+    out: dict[str, tuple[StampsNs, Points]] = {}
+    for k, axis in enumerate("xyz"):
+        pts: Points = pose.positions + ORIENTATION_LEVER_M * rot[:, :, k]
+        out[f"{name}{ORIENTATION_SEPARATOR}{axis}"] = (pose.stamps_ns, pts)
+    return out
+
+
 def _interp_positions(stamps: StampsNs, positions: Points, at: StampsNs) -> Points:
     t = stamps.astype(np.float64)
     out: Points = np.column_stack([np.interp(at.astype(np.float64), t, positions[:, i]) for i in range(3)])
@@ -49,8 +80,9 @@ def prepare(rec: RecordingData, sigma_floor_m: float, hand_pattern: str) -> Prep
     """Drop NaN samples, order by time, name hand markers; raise ``FitError`` when no marker is usable."""
     raw: dict[str, tuple[StampsNs, Points]] = {n: (m.stamps_ns, m.points) for n, m in rec.markers.items()}
     for name, pose in rec.poses.items():
-        if pose.role != "wrist" and name not in raw:
-            raw[name] = (pose.stamps_ns, pose.positions)
+        if pose.role != "wrist":
+            raw.setdefault(name, (pose.stamps_ns, pose.positions))
+            raw.update(orientation_markers(name, pose))
     if not raw:
         msg = f"recording {rec.id} has no marker tracks (nothing to segment)"
         raise FitError(msg)
@@ -70,6 +102,11 @@ def prepare(rec: RecordingData, sigma_floor_m: float, hand_pattern: str) -> Prep
         order = np.argsort(stamps, kind="stable")
         stamps = stamps[order]
         pts = pts[order]
+        stale = np.concatenate([[False], (np.diff(pts, axis=0) == 0.0).all(axis=1)])
+        if stale.any() and (~stale).sum() >= MIN_SAMPLES:
+            warnings.append(f"marker {name}: {int(stale.sum())} repeated samples dropped (a stale value re-sent)")
+            stamps = stamps[~stale]
+            pts = pts[~stale]
         t_s: FloatArray = (stamps - rec.start_ns).astype(np.float64) / 1e9
         if len(pts) < MIN_SAMPLES:
             span = (float(t_s[0]), float(t_s[-1]))

@@ -23,10 +23,16 @@ from tasks.segment.tracks import Track
 IntArray = np.ndarray
 
 
+MIN_MODEL_SAMPLES = 4
+"""Samples a line or circle needs before its residual says anything (a circle passes through any three points)."""
+FEW_SAMPLE_MODELS = [0, 3]
+"""Models (still, undefined) that score a span with fewer samples: a short span is never free."""
+
+
 @dataclass(frozen=True)
 class ChangepointParams:
     """Search settings: grid cell (s), minimum segment (s), penalty per segment (nats, None = 3 log N per
-    marker), per-sample cost of the undefined model (nats), largest number of grid cells."""
+    marker, N the effective sample count), per-sample cost of the undefined model (nats), most grid cells."""
 
     grid_s: float = 0.05
     min_segment_s: float = 0.3
@@ -60,8 +66,10 @@ def _marker_cost(track: Track, start: IntArray, stop: IntArray, undefined: float
         sigma_model=track.sigma_m,
         undefined=undefined,
     )
-    best: FloatArray = costs.min(axis=1)
-    return np.where(res.n >= 4, best, 0.0)
+    best: FloatArray = np.where(
+        res.count >= MIN_MODEL_SAMPLES, costs.min(axis=1), costs[:, FEW_SAMPLE_MODELS].min(axis=1)
+    )
+    return np.where(res.count > 0, best, 0.0)
 
 
 def spans_cost(tracks: list[Track], t_from: FloatArray, t_to: FloatArray, undefined: float) -> FloatArray:
@@ -84,9 +92,9 @@ def search(tracks: list[Track], params: ChangepointParams) -> Segmentation:
     grid = t_lo + cell * np.arange(n_cells + 1, dtype=np.float64)
     grid[-1] = t_hi
     min_cells = max(1, math.ceil(params.min_segment_s / cell))
-    n_samples = max(len(tr.t_s) for tr in tracks)
-    beta = params.penalty if params.penalty is not None else 3.0 * len(tracks) * math.log(max(n_samples, 2))
-    margin = 4.0 * len(tracks) * math.log(max(n_samples, 2))
+    n_evidence = max(float(tr.weights.sum()) for tr in tracks)
+    beta = params.penalty if params.penalty is not None else 3.0 * len(tracks) * math.log(max(n_evidence, 2.0))
+    margin = 4.0 * len(tracks) * math.log(max(n_evidence, 2.0))
     stacked, offsets = concat_moments([tr.moments for tr in tracks])
     # grid boundary -> row in the stacked prefix sums, per marker: (markers, cells + 1)
     rows = np.stack([np.searchsorted(tr.t_s, grid, side="left") + off for tr, off in zip(tracks, offsets, strict=True)])
@@ -107,7 +115,10 @@ def search(tracks: list[Track], params: ChangepointParams) -> Segmentation:
             sigma_model=np.repeat(sig_model, len(cands)),
             undefined=params.undefined_nats,
         )
-        best_model = np.where(res.n >= 4, costs.min(axis=1), 0.0)
+        best_model = np.where(
+            res.count >= MIN_MODEL_SAMPLES, costs.min(axis=1), costs[:, FEW_SAMPLE_MODELS].min(axis=1)
+        )
+        best_model = np.where(res.count > 0, best_model, 0.0)
         out: FloatArray = best_model.reshape(n_markers, len(cands)).sum(axis=0)
         return out
 

@@ -44,9 +44,9 @@ def test_the_door_levers_half_radian_turn_is_a_rotation(tmp_path: Path, seed: in
         assert err.t_end_s is not None and abs(err.t_end_s) < 0.2
 
 
-def test_without_the_parts_orientation_the_lever_reads_as_a_translation(tmp_path: Path) -> None:
+def test_without_the_parts_orientation_the_lever_is_still_a_rotation(tmp_path: Path) -> None:
     score, _ = _learn(tmp_path, "door", 0, LearnParams(use_orientations=False))
-    assert score.learned == ("translation", "rotation")
+    assert score.learned == ("rotation", "rotation")
 
 
 @pytest.mark.parametrize("seed", [0, 7])

@@ -1,0 +1,103 @@
+"""A primitive is one monotonic motion of its joint: a segment whose part goes out and comes back along the same
+axis (a drawer opened and closed, a door swung to and fro) is cut at each reversal into primitives of opposite
+sense, each with the extent it travelled (``../shared/DESCRIPTOR.md``: extents are never negative).
+
+The part's coordinate along the segment's fitted primitive (angle about the axis, or distance along the
+direction; ``tasks.learn.boundaries.part_coordinate``) is smoothed, and a reversal is a turning point after which
+the coordinate retraces more than a real motion (``min_motion_m`` of path, and ``min_rotation_rad`` of a turn),
+well above the smoothed coordinate's noise.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from tasks.arrays import FloatArray
+from tasks.learn.boundaries import SMOOTH_S, part_coordinate, smooth
+from tasks.learn.chain import SegmentFit
+from tasks.learn.params import LearnParams
+from tasks.learn.prepare import PreparedRecording
+
+REVERSAL_SIGMAS = 5.0
+"""A retrace must exceed this many noise sigmas of the smoothed coordinate to be a reversal, not scatter."""
+
+
+def turning_points(coord: FloatArray, threshold: float) -> list[int]:
+    """Indices of the extremes of a sequence after which it retraces more than ``threshold`` (a zig-zag filter;
+    NaNs are skipped). The sense is set once the sequence first leaves its start by more than ``threshold``."""
+    idx = np.flatnonzero(np.isfinite(coord))
+    out: list[int] = []
+    if len(idx) < 3:
+        return out
+    start = int(idx[0])
+    direction = 0
+    ext = start
+    for i in idx[1:]:
+        v = float(coord[i])
+        if direction == 0:
+            if abs(v - coord[start]) > threshold:
+                direction, ext = (1 if v > coord[start] else -1), int(i)
+            continue
+        if (v - coord[ext]) * direction > 0:
+            ext = int(i)
+        elif (coord[ext] - v) * direction > threshold:
+            out.append(ext)
+            direction, ext = -direction, int(i)
+    return out
+
+
+def _least_motion(f: SegmentFit, params: LearnParams) -> float:
+    """Smallest retrace that is a motion of its own, in the primitive's coordinate: ``min_motion_m`` of path, and
+    for a rotation at least ``min_rotation_rad`` (a hand re-gripping a swinging door lets it fall back a few
+    degrees without closing it)."""
+    if f.kind == "rotation" and f.rotation is not None:
+        radius = max(max(f.rotation.radii, default=0.0), 1e-6)
+        return max(params.min_motion_m / radius, params.min_rotation_rad)
+    return params.min_motion_m
+
+
+def _piece(f: SegmentFit, t0: float, t1: float, travel: float) -> SegmentFit:
+    """The part of ``f`` over [t0, t1) that travels ``travel`` (signed, along f's positive sense)."""
+    sign = 1.0 if travel >= 0 else -1.0
+    rot = f.rotation
+    tra = f.translation
+    if f.kind == "rotation" and rot is not None:
+        rot = replace(rot, dir=sign * rot.dir, angle_rad=abs(travel))
+    elif tra is not None:
+        tra = replace(tra, dir=sign * tra.dir, distance_m=abs(travel))
+    return replace(f, t_start=t0, t_end=t1, rotation=rot, translation=tra, extent=abs(travel))
+
+
+def split_reversals(prep: PreparedRecording, fits: list[SegmentFit], params: LearnParams) -> list[SegmentFit]:
+    """Every rotation or translation cut at the reversals of its part's motion (see the module docstring)."""
+    by_name = {tr.name: tr for tr in prep.tracks}
+    out: list[SegmentFit] = []
+    for f in fits:
+        if f.kind not in ("rotation", "translation"):
+            out.append(f)
+            continue
+        names = [n for n in f.markers if n not in prep.hand] or list(f.markers)
+        tracks = [by_name[n] for n in names]
+        grid_all = max(tracks, key=lambda tr: len(tr.t_s)).t_s
+        grid = grid_all[(grid_all >= f.t_start) & (grid_all < f.t_end)]
+        got = part_coordinate(f, tracks, grid) if len(grid) >= 3 else None
+        if got is None:
+            out.append(f)
+            continue
+        coord, noise = got
+        dt = float(np.median(np.diff(grid)))
+        width = max(1, round(SMOOTH_S / dt)) if dt > 0 else 1
+        level = smooth(coord, width)
+        threshold = max(_least_motion(f, params), REVERSAL_SIGMAS * noise / np.sqrt(width))
+        turns = turning_points(level, threshold)
+        if not turns:
+            out.append(f)
+            continue
+        cuts = [0, *turns, len(grid) - 1]
+        times = [f.t_start, *(float(grid[i]) for i in turns), f.t_end]
+        for k in range(len(cuts) - 1):
+            travel = float(level[cuts[k + 1]] - level[cuts[k]])
+            out.append(_piece(f, times[k], times[k + 1], travel))
+    return out

@@ -1,0 +1,160 @@
+"""Learning what the motion shows, not what the sample rate, marker names or noise level would suggest: unnamed
+hand markers, open-and-close, camera noise, rigid-body orientations and real tracks at other rates."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from tasks.cli import main as pbd
+from tasks.fit.geometry import angle_between_axes
+from tasks.learn.api import learn_chain
+from tasks.learn.params import LearnParams
+from tasks.recording.load import MarkerTrack, PoseTrack, RecordingData
+from tasks.recording.writer import RecordingWriter
+from tests.conftest import REAL
+from tests.learn.synthetic import START_NS
+
+RNG = np.random.default_rng
+HINGE = np.array([0.2, -0.1, 0.9])
+
+
+def _ease(s: np.ndarray) -> np.ndarray:
+    s = np.clip(s, 0.0, 1.0)
+    return 10 * s**3 - 15 * s**4 + 6 * s**5
+
+
+def _stamps(t: np.ndarray) -> np.ndarray:
+    return START_NS + np.round(t * 1e9).astype(np.int64)
+
+
+def _door_point(angle: np.ndarray, radius: float, height: float = 0.0) -> np.ndarray:
+    """A point on a door hinged about the vertical axis through ``HINGE`` (m, world)."""
+    return HINGE + np.column_stack([radius * np.cos(angle), radius * np.sin(angle), np.full_like(angle, height)])
+
+
+def _reach_ride_withdraw(hz: float, rng: np.random.Generator) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Two door markers and an unnamed hand marker: the hand reaches along a curve while the door rests (0-2 s),
+    rides 3 cm off the handle while the door turns 1 rad (2.5-4.5 s) and withdraws along another curve (5-6.5 s)."""
+    t = np.arange(0.0, 7.0, 1.0 / hz)
+    angle = 1.0 * _ease((t - 2.5) / 2.0)
+    door = {"marker_0": _door_point(angle, 0.6), "marker_1": _door_point(angle, 0.45, 0.2)}
+    handle = _door_point(angle, 0.6) + np.array([0.0, 0.0, 0.03])
+    start = handle[0] + np.array([-0.4, -0.3, -0.2])
+    u = _ease(t / 2.0)[:, None]
+    bow = np.sin(np.pi * u) * np.array([0.0, 0.12, 0.1])
+    hand = np.where(t[:, None] < 2.0, start + u * (handle[0] - start) + bow, handle)
+    w = _ease((t - 5.0) / 1.5)[:, None]
+    away = handle[-1] + w * np.array([-0.3, 0.4, 0.1]) + np.sin(np.pi * w) * np.array([0.1, 0.0, 0.1])
+    hand = np.where(t[:, None] >= 5.0, away, hand)
+    markers = {**door, "marker_2": hand}
+    return {n: (t, p + rng.normal(0.0, 0.0005, p.shape)) for n, p in markers.items()}
+
+
+def _recording(
+    markers: dict[str, tuple[np.ndarray, np.ndarray]], poses: dict[str, PoseTrack] | None = None
+) -> RecordingData:
+    tracks = {n: MarkerTrack(n, _stamps(t), p) for n, (t, p) in markers.items()}
+    return RecordingData("unseen", Path("unseen"), {"start_ns": START_NS}, tracks, poses or {}, None, {})
+
+
+@pytest.mark.parametrize("hz", [20.0, 120.0])
+def test_an_unnamed_hand_markers_reach_and_withdrawal_are_dropped(hz: float) -> None:
+    rec = _recording(_reach_ride_withdraw(hz, RNG(3)))
+    result = learn_chain(rec, LearnParams(), RNG(0))
+    (prim,) = result.chain
+    assert prim.kind == "rotation"
+    assert abs(prim.extent - 1.0) < 0.05
+    assert angle_between_axes(np.array(prim.dir), np.array([0.0, 0.0, 1.0])) < np.radians(2.0)
+    assert 2.2 < prim.t_start < 2.9 and 4.1 < prim.t_end < 4.8
+
+
+def test_pbd_learn_on_a_written_recording_drops_an_unnamed_hands_reach(tmp_path: Path) -> None:
+    path = tmp_path / "unnamed.mcap"
+    with RecordingWriter(path, "mcap") as writer:
+        for name, (t, p) in _reach_ride_withdraw(60.0, RNG(5)).items():
+            writer.add_points(f"/mocap/{name}", _stamps(t), p)
+    out = tmp_path / "d.json"
+    assert pbd(["learn", str(path), "--store", str(tmp_path / "store"), "--out", str(out)]) == 0
+    chain = json.loads(out.read_text())["chain"]
+    assert [p["kind"] for p in chain] == ["rotation"]
+
+
+@pytest.mark.parametrize("noise_m", [0.0002, 0.01])
+def test_a_drawer_opened_and_closed_gives_two_translations_of_opposite_sense(noise_m: float) -> None:
+    t = np.arange(0.0, 6.0, 1.0 / 30.0)
+    travel = 0.3 * (_ease((t - 1.0) / 1.5) - _ease((t - 3.0) / 1.5))
+    pts = np.array([0.5, 0.1, 0.7]) + np.outer(travel, [0.6, 0.8, 0.0])
+    rec = _recording({"tag": (t, pts + RNG(1).normal(0.0, noise_m, pts.shape))})
+    chain = learn_chain(rec, LearnParams(), RNG(0)).chain
+    assert [p.kind for p in chain] == ["translation", "translation"]
+    opening, closing = chain
+    assert float(np.dot(opening.dir, [0.6, 0.8, 0.0])) > 0.99
+    assert float(np.dot(closing.dir, [0.6, 0.8, 0.0])) < -0.99
+    for prim in chain:
+        assert abs(prim.extent - 0.3) < max(0.01, 3.0 * noise_m)
+
+
+def test_a_camera_noisy_door_swung_open_and_shut_is_two_rotations() -> None:
+    t = np.arange(0.0, 8.0, 1.0 / 30.0)
+    angle = 1.2 * (_ease((t - 1.0) / 2.0) - _ease((t - 4.5) / 2.0))
+    pts = _door_point(angle, 0.5)
+    rec = _recording({"blob": (t, pts + RNG(2).normal(0.0, 0.012, pts.shape))})
+    chain = learn_chain(rec, LearnParams(), RNG(0)).chain
+    assert [p.kind for p in chain] == ["rotation", "rotation"]
+    assert float(np.dot(chain[0].dir, [0.0, 0.0, 1.0])) > 0.98
+    assert float(np.dot(chain[1].dir, [0.0, 0.0, 1.0])) < -0.98
+    for prim in chain:
+        assert abs(prim.extent - 1.2) < 0.15
+        assert max(prim.fit["radii_m"]) == pytest.approx(0.5, abs=0.03)
+
+
+def test_a_tracked_bodys_orientation_gives_each_swing_of_a_real_camera_tracked_door() -> None:
+    rows = np.loadtxt(REAL / "sturm" / "articulation_models" / "door.txt")
+    t = np.arange(len(rows)) / 30.0
+    pose = PoseTrack("/tag", "markers", _stamps(t), rows[:, :3], rows[:, 3:7])
+    rec = RecordingData("door", Path("door"), {"start_ns": START_NS}, {}, {"/tag": pose}, None, {})
+    chain = learn_chain(rec, LearnParams(), RNG(0)).chain
+    hinge = np.array([-0.025, 0.866, 0.5])
+    assert [p.kind for p in chain] == ["rotation"] * 8
+    signs = [float(np.sign(np.dot(p.dir, hinge))) for p in chain]
+    assert signs == [signs[0], -signs[0]] * 4
+    for prim in chain:
+        assert angle_between_axes(np.array(prim.dir), hinge, signed=False) < np.radians(10.0)
+        assert prim.markers == ("/tag",)
+        assert prim.fit["evidence"] == ["positions", "orientations"]
+
+
+def _resampled(points: np.ndarray, hz_from: float, hz_to: float) -> tuple[np.ndarray, np.ndarray]:
+    t = np.arange(len(points)) / hz_from
+    grid = np.arange(0.0, t[-1], 1.0 / hz_to)
+    return grid, np.column_stack([np.interp(grid, t, points[:, i]) for i in range(3)])
+
+
+@pytest.mark.parametrize("trial", ["002", "007"])
+def test_a_real_dishwasher_opening_is_one_rotation_at_every_rate(trial: str) -> None:
+    pts = np.loadtxt(REAL / "sturm" / "second_set_dishwasher" / f"{trial}.log")
+    radii = []
+    for hz in (10.0, 30.0, 100.0):
+        chain = learn_chain(_recording({"/gripper": _resampled(pts, 30.0, hz)}), LearnParams(), RNG(0)).chain
+        assert [p.kind for p in chain] == ["rotation"], hz
+        radii.append(max(chain[0].fit["radii_m"]))
+    assert np.ptp(radii) < 0.03
+    assert all(0.62 < r < 0.70 for r in radii)
+
+
+def test_orientations_of_a_rigid_body_are_the_evidence_the_fit_names() -> None:
+    t = np.arange(0.0, 5.0, 0.02)
+    angle = 0.8 * _ease((t - 1.0) / 2.5)
+    pts = _door_point(angle, 0.4) + RNG(4).normal(0.0, 0.0005, (len(t), 3))
+    quats = Rotation.from_rotvec(np.outer(angle, [0.0, 0.0, 1.0])).as_quat()
+    pose = PoseTrack("/body", "markers", _stamps(t), pts, quats)
+    with_pose = RecordingData("p", Path("p"), {"start_ns": START_NS}, {}, {"/body": pose}, None, {})
+    (prim,) = learn_chain(with_pose, LearnParams(), RNG(0)).chain
+    assert prim.fit["evidence"] == ["positions", "orientations"]
+    (plain,) = learn_chain(_recording({"/body": (t, pts)}), LearnParams(), RNG(0)).chain
+    assert plain.fit["evidence"] == ["positions"]
