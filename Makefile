@@ -40,13 +40,16 @@ PYTEST := $(BIN)/pytest -q -n $(WORKERS) --dist loadscope
 test: lint typecheck
 	$(PYTEST) -m "not slow"
 
-# The slow set alone (CI runs it after `make test`).
+# The slow set alone (CI runs it after `make test`); the real Prefect server's tests last, in one process, so that
+# `pbd serve` registers its deployments within their deadline.
 test-slow: $(STAMP)
-	$(PYTEST) -m slow
+	$(PYTEST) -m "slow and not server"
+	$(BIN)/pytest -q -m "slow and server"
 
 # Everything: lint, types, the fast and the slow tests.
 test-all: lint typecheck
-	$(PYTEST)
+	$(PYTEST) -m "not server"
+	$(BIN)/pytest -q -m server
 
 bench: $(STAMP)
 	@for b in bench/*.py; do echo "== $$b"; $(BIN)/python $$b || exit 1; done
