@@ -1,20 +1,22 @@
-"""Benchmark of the reprocessing flow against a local Prefect server (SQLite, 127.0.0.1).
+"""Benchmark of ``pbd archive`` as whole processes against a local Prefect server (SQLite, 127.0.0.1).
 
-Builds an archive of simulated demonstrations (``pbd synth``, the four scenes), then measures in one run:
+Builds an archive of simulated demonstrations (``pbd synth``, the four scenes in turn, MCAP, bag and rosbag2 in
+turn), then times three whole ``pbd archive DIR --json`` processes on one store, report included:
 
-1. first run of ``reprocess-archive`` on an empty store,
-2. an unchanged re-run (target: under 10% of the first; every stage a cache hit),
-3. a re-run after one learning parameter changed (ingest cached, learning re-runs),
-4. the same work done by calling the stage functions directly, one recording after another, against a
-   cold flow run with one worker (target: orchestration overhead under 20%). The machine is shared, so
-   direct and flow runs alternate, twice each on fresh stores, and the best of each pair is compared.
+1. the first run (the baseline every figure is a share of),
+2. an unchanged re-run (target: under 10 % of the first at 20 recordings, under 5 % at 200: every stage a cache
+   hit, no figure drawn again),
+3. a re-run with a grasp planner parameter changed (``--grasp-param steps=300``): segment and fit must be cache
+   hits, the grasp and what follows it re-run.
 
-Stage executions are counted from the server's task runs (``Completed`` = executed, ``Cached`` = hit).
-Uses ``PREFECT_API_URL`` when it is set; otherwise starts ``prefect server start`` on loopback with a temporary
-PREFECT_HOME and stops it at the end.
+Stage executions are counted from the server's task runs (``Completed`` = executed, ``Cached`` = hit). The
+development archive uses seeds 0..N-1; the held-out archive (printed after it) seeds 1000.. and a quarter as many
+recordings (at least 4). Uses ``PREFECT_API_URL`` when set; otherwise starts ``prefect server start`` on
+loopback with a temporary PREFECT_HOME and stops it at the end.
 
-    .venv/bin/python bench/archive.py            # 20 recordings
-    .venv/bin/python bench/archive.py --quick    # 4 recordings
+    .venv/bin/python bench/archive.py              # 20 recordings (held out: 5)
+    .venv/bin/python bench/archive.py --quick      # 4 recordings (held out: 4)
+    .venv/bin/python bench/archive.py --count 200  # the archive-scale run (long)
 """
 
 from __future__ import annotations
@@ -77,9 +79,10 @@ def local_server(home: Path) -> Iterator[str]:
         log.close()
 
 
-def make_archive(folder: Path, count: int) -> list[Path]:
-    """``count`` simulated demonstrations (``pbd synth``): the four built-in scenes in turn, seed ``i``, MCAP, ROS 1
-    bag and rosbag2 in turn; each names its scene instance, so every stage runs, simulation included."""
+def make_archive(folder: Path, count: int, first_seed: int = 0) -> list[Path]:
+    """``count`` simulated demonstrations (``pbd synth``): the four built-in scenes in turn, seeds from
+    ``first_seed``, MCAP, ROS 1 bag and rosbag2 in turn; each names its scene instance, so every stage runs,
+    simulation included."""
     from tasks.scenes.catalog import SCENE_NAMES
     from tasks.synth.record import synthesize
 
@@ -88,8 +91,8 @@ def make_archive(folder: Path, count: int) -> list[Path]:
     for i in range(count):
         fmt = formats[i % len(formats)]
         scene = SCENE_NAMES[i % len(SCENE_NAMES)]
-        name = f"{scene}-{i:02d}" + ("" if fmt == "rosbag2" else f".{fmt}")
-        paths.append(synthesize(scene, i, folder / name, fmt))
+        name = f"{scene}-{first_seed + i:04d}" + ("" if fmt == "rosbag2" else f".{fmt}")
+        paths.append(synthesize(scene, first_seed + i, folder / name, fmt))
     return paths
 
 
@@ -119,71 +122,50 @@ def stage_counts(flow_run_id: str, expected: int) -> dict[str, Counter[str]]:
     return out
 
 
-def timed_flow(archive: Path, store: Path, params: dict[str, Any], workers: int) -> tuple[float, str, Any]:
-    """Seconds of one in-process ``reprocess-archive`` run, its flow run id and its summary."""
-    from flows.reprocess_archive import reprocess_archive
-    from flows.runtime import cli_settings
+GRASP_CHANGE = ("--grasp-param", "steps=300")
+"""The grasp planner parameter changed for the third run (default 400 annealing steps)."""
 
-    t0 = time.perf_counter()
-    with cli_settings():
-        state = reprocess_archive(
-            archive=str(archive), store=str(store), params=params, workers=workers, report=False, return_state=True
+
+def archive_run_id(since: float) -> str:
+    """Id of the ``reprocess-archive-run`` flow run started after ``since`` (epoch seconds)."""
+    from datetime import UTC, datetime
+
+    from prefect.client.orchestration import get_client
+    from prefect.client.schemas.filters import FlowFilter, FlowFilterName, FlowRunFilter, FlowRunFilterStartTime
+
+    after = datetime.fromtimestamp(since, tz=UTC)
+    with get_client(sync_client=True) as client:
+        runs = client.read_flow_runs(
+            flow_filter=FlowFilter(name=FlowFilterName(any_=["reprocess-archive-run"])),
+            flow_run_filter=FlowRunFilter(start_time=FlowRunFilterStartTime(after_=after)),
         )
-    elapsed = time.perf_counter() - t0
-    return elapsed, str(state.state_details.flow_run_id), state.result()
+    return str(runs[0].id)
 
 
-CHANGED_PARAM = {"min_rotation_rad": 0.3}
-"""The one learning parameter changed for the third run (default 0.25 rad)."""
+def timed_archive(archive: Path, store: Path, workers: int, *extra: str) -> tuple[float, dict[str, Any], str]:
+    """Seconds of one whole ``pbd archive`` process (report included), its summary and its flow run id."""
+    import json
 
-
-def process_directly(source: Path, store_root: Path, name: str, params: dict[str, Any]) -> None:
-    """The flow's stage work for one recording without Prefect: ingest, learn, store, simulate, diff."""
-    import numpy as np
-
-    from tasks.diff.core import diff_descriptors
-    from tasks.errors import SceneError, SimulationError
-    from tasks.ingest.api import ingest_recording
-    from tasks.learn.api import learn_descriptor
-    from tasks.learn.params import LearnParams
-    from tasks.recording.load import load_recording
-    from tasks.simulate.api import simulate_descriptor
-    from tasks.simulate.instance import instance_from_meta
-    from tasks.store import Store
-
-    store = Store(store_root)
-    rec_id = ingest_recording(source, store).recording_id
-    rec = load_recording(store, rec_id)
-    desc = learn_descriptor(rec, LearnParams(**params), name=name, rng=np.random.default_rng(0))
-    if rec.object_model is not None:
-        store.put_model(rec.object_model)
-    put = store.put_descriptor(desc)
-    scene, seed = instance_from_meta(rec.meta)  # the instance the recording names, as in the flow
-    if scene is not None:
-        with contextlib.suppress(SceneError, SimulationError):  # a misfit is a failed simulation, as in the flow
-            simulate_descriptor(desc, scene=scene, rng=np.random.default_rng(seed) if seed is not None else None)
-    if put.created and put.version > 1:
-        diff_descriptors(store.load(f"{put.name}@v{put.version - 1}"), desc)
-
-
-def find_first(archive: Path) -> Path:
-    """The first recording of the archive."""
-    from flows.discover import find_recordings
-
-    return find_recordings(archive)[0]
-
-
-def direct(archive: Path, store: Path, params: dict[str, Any]) -> float:
-    """Seconds to do the flow's stage work by calling the stage functions directly, one recording at a time."""
-    from flows.chain import archive_names
-    from flows.discover import find_recordings
-
-    sources = find_recordings(archive)
-    names = archive_names(archive, sources)
+    since = time.time()
+    argv = [sys.executable, "-m", "flows.cli", "archive", str(archive), "--store", str(store), "--json"]
+    argv += ["--workers", str(workers), *extra]
     t0 = time.perf_counter()
-    for source in sources:
-        process_directly(source, store, names[source], params)
-    return time.perf_counter() - t0
+    out = subprocess.run(argv, capture_output=True, text=True, check=False, cwd=REPO)
+    elapsed = time.perf_counter() - t0
+    if out.returncode != 0:
+        raise RuntimeError(f"pbd archive exited {out.returncode}: {out.stderr[-2000:]}")
+    return elapsed, json.loads(out.stdout), archive_run_id(since)
+
+
+def bench_archive(label: str, archive: Path, store: Path, count: int, workers: int) -> list[tuple[str, float, Any]]:
+    """The three runs on one archive: (label, seconds, stage counts) each."""
+    rows = []
+    for what, extra in (("first run", ()), ("unchanged re-run", ()), ("grasp parameter changed", GRASP_CHANGE)):
+        secs, summary, run_id = timed_archive(archive, store, workers, *extra)
+        counts = summary["counts"]
+        status = f"{counts['new']}n {counts['changed']}c {counts['unchanged']}u {counts['failed']}f"
+        rows.append((f"{label}: {what} ({status})", secs, stage_counts(run_id, 8 * count)))
+    return rows
 
 
 def main() -> int:
@@ -191,61 +173,37 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--quick", action="store_true", help="4 recordings instead of 20")
     parser.add_argument("--count", type=int, default=None, help="number of recordings (default 20, quick 4)")
-    parser.add_argument("--workers", type=int, default=2, help="recordings in flight in the concurrent run")
+    parser.add_argument("--workers", type=int, default=2, help="recordings in flight")
     args = parser.parse_args()
     count = args.count or (4 if args.quick else 20)
+    held_out = max(4, count // 4)
     tmp = Path(tempfile.mkdtemp(prefix="pbd-bench-archive-"))
     home = tmp / "prefect-home"
     home.mkdir()
     try:
-        archive = tmp / "archive"
-        archive.mkdir()
         t0 = time.perf_counter()
-        make_archive(archive, count)
-        print(f"archive: {count} recordings in {time.perf_counter() - t0:.1f} s ({archive})")
+        make_archive(tmp / "development", count, first_seed=0)
+        make_archive(tmp / "held-out", held_out, first_seed=1000)
+        print(f"archives: {count} + {held_out} recordings in {time.perf_counter() - t0:.1f} s ({tmp})")
         with local_server(home) as url:
             os.environ["PREFECT_API_URL"] = url
             print(f"server: {url}")
-            rows = []
-            store = tmp / "store"
-            # warm-up: both timed paths below run with every stage module imported and initialised
-            import flows.reprocess_archive  # noqa: F401
-
-            warm = find_first(archive)
-            process_directly(warm, tmp / "store-warm-up", "warm-up", {})
-
-            # The machine is shared: flow and direct runs alternate, each twice on a cold store, best of two.
-            plain_runs = [direct(archive, tmp / "store-direct-1", {})]
-            first, run1, _ = timed_flow(archive, store, {}, workers=1)
-            rows.append(("first run (1 worker)", first, stage_counts(run1, 5 * count)))
-            plain_runs.append(direct(archive, tmp / "store-direct-2", {}))
-            cold2, _, _ = timed_flow(archive, tmp / "store-cold-2", {}, workers=1)
-            again, run2, _ = timed_flow(archive, store, {}, workers=args.workers)
-            rows.append(("unchanged re-run", again, stage_counts(run2, 5 * count)))
-            changed, run3, _ = timed_flow(archive, store, CHANGED_PARAM, workers=args.workers)
-            rows.append((f"re-run with {CHANGED_PARAM}", changed, stage_counts(run3, 5 * count)))
-            concurrent, run4, _ = timed_flow(archive, tmp / "store-concurrent", {}, workers=args.workers)
-            rows.append((f"first run ({args.workers} workers)", concurrent, stage_counts(run4, 5 * count)))
-            plain = min(plain_runs)
-            flow_best = min(first, cold2)
-            from prefect.logging.handlers import APILogHandler
-
-            APILogHandler().flush()  # send the queued run logs before the server stops
+            rows = bench_archive(f"development ({count})", tmp / "development", tmp / "store-dev", count, args.workers)
+            rows += bench_archive(
+                f"held out ({held_out})", tmp / "held-out", tmp / "store-held", held_out, args.workers
+            )
         print()
-        print(f"{'run':<34} {'seconds':>8} {'% of first':>10}  stage runs (executed/cached)")
-        for label, secs, counts in rows:
+        print(f"{'run':<58} {'seconds':>8} {'% of first':>10}  stage runs (executed/cached)")
+        for i, (label, secs, counts) in enumerate(rows):
+            first = rows[i - i % 3][1]
             stages = ", ".join(f"{k} {c.get('Completed', 0)}/{c.get('Cached', 0)}" for k, c in sorted(counts.items()))
-            print(f"{label:<34} {secs:8.2f} {100 * secs / first:9.1f}%  {stages}")
-        print(f"{'second cold run (1 worker)':<34} {cold2:8.2f} {100 * cold2 / first:9.1f}%")
-        for i, secs in enumerate(plain_runs, 1):
-            print(f"{f'stage functions called directly #{i}':<34} {secs:8.2f} {100 * secs / first:9.1f}%")
+            print(f"{label:<58} {secs:8.2f} {100 * secs / first:9.1f}%  {stages}")
+        target = "< 5%" if count >= 200 else "< 10%"
         print()
-        overhead = 100 * (flow_best - plain) / plain
-        ratio = 100 * again / first
-        print(f"{'figure':<44} {'ours':>8} {'target':>8}")
-        print(f"{'unchanged re-run, % of first run':<44} {ratio:7.1f}% {'< 10%':>8}")
-        print(f"{'orchestration overhead vs direct calls (best of 2)':<44} {overhead:7.1f}% {'< 20%':>8}")
-        print(f"{'per recording, direct / flow, best of 2 (s)':<44} {plain / count:8.2f} {flow_best / count:8.2f}")
+        print(f"{'figure':<58} {'ours':>8} {'target':>8}")
+        for part in (0, 3):
+            ratio = 100 * rows[part + 1][1] / rows[part][1]
+            print(f"{rows[part][0].split(':')[0] + ': unchanged re-run, % of first run':<58} {ratio:7.1f}% {target:>8}")
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     return 0

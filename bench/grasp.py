@@ -53,7 +53,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from schemas.descriptor import Grasp
 from tasks.errors import GraspError
-from tasks.grasp import barrett
 from tasks.grasp.api import part_near, plan_on_model
 from tasks.grasp.candidate_grasp import grasp_from_candidate
 from tasks.grasp.object_model import (
@@ -64,6 +63,7 @@ from tasks.grasp.object_model import (
 from tasks.grasp.planner import PlannerParams, evaluate_pose
 from tasks.grasp.shake import QUICK_SHAKE, shake_test
 from tasks.grasp.worker_pool import PROCESSES_ENV, wait_idle
+from tasks.hand import barrett
 from tests.grasp.cases.grasp import Case, hold_program, random_cases, scene_cases
 
 PLAN_TARGET_S = 5.0

@@ -298,8 +298,9 @@ class CorpusErrors:
 def _corpus_run(store: Store, folder: Path, cases: list[Case], title: str) -> None:
     """Ours and the paper's method (true k) over corpus cases written as MCAP recordings; one table."""
     ours, paper = CorpusErrors(), CorpusErrors()
+    run = Path(tempfile.mkdtemp(prefix="corpus-", dir=folder))
     for i, case in enumerate(cases):
-        path = folder / f"corpus-{i}.mcap"
+        path = run / f"case-{i}.mcap"
         write_case(case, path)
         k = 2 * len(case.truth) + 1
         for who, params in ((ours, LearnParams()), (paper, LearnParams.paper_baseline(k=k))):

@@ -33,7 +33,7 @@ SWING_S, HOLD_S = 1.5, 0.8
 RUNNER = """
 import resource, sys, time
 t0 = time.perf_counter()
-from tasks.cli import main
+from flows.cli import main
 code = main(sys.argv[1:])
 sys.stderr.write(f"BENCH {time.perf_counter() - t0:.3f} {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss}\\n")
 sys.exit(code)

@@ -37,6 +37,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from bench.cases.scene_models import scene_model
 from schemas.descriptor import Descriptor, ObjectRef, Primitive
 from tasks.errors import PbdError
 from tasks.ingest.api import ingest_recording
@@ -48,14 +49,13 @@ from tasks.scenes.kinematics import truth_descriptor
 from tasks.simulate.api import simulate_descriptor
 from tasks.store import Store
 from tasks.synth.record import synthesize
-from tasks.transfer import shapes
 from tasks.transfer.api import MAX_SPREAD_DEG, MAX_SPREAD_MM, plausible_alternatives, transfer_descriptor
 from tasks.transfer.axes import PlacedAxes, place_axes, placed_spread
 from tasks.transfer.carry import carry_chain, carry_grasp, carry_primitive, grip_points
 from tasks.transfer.clouds import bbox_diagonal, check_model, functional_mask, plain_icp
 from tasks.transfer.registration import Registration, RegistrationParams, register_models
-from tasks.transfer.scene_models import scene_model
 from tasks.transfer.similarity import Similarity, angle_between_deg, point_line_distance
+from tests.transfer import shapes
 
 NOISE_M = 3e-4
 LARGE_FACTOR = 3

@@ -1,4 +1,4 @@
-"""Cache keys, result storage and retry rules shared by the Prefect task wrappers in ``tasks/<stage>/task.py``.
+"""Cache keys, result storage and retry rules shared by the Prefect task wrappers in ``flows/stages/<stage>.py``.
 
 A stage's cache key is built from references only: the content ids of its inputs (recording id, descriptor
 id), its parameters (canonical JSON) and an explicit code version over the stage's modules
@@ -40,6 +40,11 @@ RETRIES = 2
 
 RETRY_DELAY_S = 1.0
 """Pause before a retry, seconds."""
+
+STAGE_TIMEOUT_S = 1800.0
+"""Longest wait for one stage of one recording, seconds (``flows.chain.collect``): a grasp plan takes up to ~20 s
+and a long recording's segmentation minutes on two busy cores, so half an hour means a hung run (a deadlocked
+worker, a stuck mount). Prefect's own task timeouts cannot stop a task in a worker thread."""
 
 T = TypeVar("T")
 

@@ -1,42 +1,48 @@
-"""The per-recording chain of stage tasks, shared by the flows: ingest → learn → store → simulate, and the
-diff against the previous version.
+"""The per-recording chain of stage tasks, shared by the flows: ingest → segment → fit → grasp → store →
+simulate, and the diff against the previous version.
 
 ``submit_chain`` submits the tasks of one recording to the flow's task runner, each taking its upstream's
-future, so recordings proceed independently; ``collect`` waits for them and summarises the outcome. A failed
-stage fails its recording only: the archive goes on and the report lists the error.
+future, so recordings proceed independently; ``collect`` waits for them, logs the outcome (chain, version
+stored, simulation) and summarises it. A failed stage fails its recording: the others go on, the report lists
+the error, and the flow run ends Failed (``flows.summary.finish``).
 """
 
 from __future__ import annotations
 
-import re
+import logging
 from collections import deque
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from prefect import Task
+from prefect import Task, get_run_logger
 from prefect.futures import PrefectFuture, as_completed
 
-from flows.caching import on_store
+from flows.caching import STAGE_TIMEOUT_S, on_store
 from flows.progress import notify
-from tasks.diff.task import diff_task
-from tasks.ingest.task import ingest_task
-from tasks.learn.task import learn_task, store_descriptor_task
-from tasks.report.refs import DescriptorRef, EntryResult
-from tasks.simulate.task import simulate_task
+from flows.stages.diff import diff_task
+from flows.stages.ingest import ingest_task
+from flows.stages.learn import fit_task, grasp_task, segment_task, store_descriptor_task
+from flows.stages.simulate import simulate_task
+from tasks.learn.api import name_from_meta, slug
+from tasks.report.refs import DescriptorRef, EntryResult, RecordingRef
+from tasks.simulate.instance import recording_meta
+from tasks.store import Store
 
 
 @dataclass(frozen=True)
 class ChainSettings:
-    """What every recording of a run shares: the store, the learning parameters, the grasp planner's seed,
-    a fixed descriptor name, and the seed of the randomised scene instance to simulate on (None: nominal)."""
+    """What every recording of a run shares: the store, the learning parameters, the seed (grasp planner,
+    spectral segmenter), a fixed descriptor name, the seed of the randomised scene instance to simulate on (None:
+    the one the recording names, else nominal) and the grasp planner's parameters."""
 
     store_root: str
     params: dict[str, Any] = field(default_factory=dict)
     seed: int = 0
     name: str | None = None
     scene_seed: int | None = None
+    grasp: dict[str, Any] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -57,20 +63,30 @@ class StageTasks:
 
     def __init__(self, store_root: str) -> None:
         self.ingest = on_store(ingest_task, store_root)
-        self.learn = on_store(learn_task, store_root)
+        self.segment = on_store(segment_task, store_root)
+        self.fit = on_store(fit_task, store_root)
+        self.grasp = on_store(grasp_task, store_root)
         self.store: Task[..., DescriptorRef] = store_descriptor_task
         self.simulate = on_store(simulate_task, store_root)
         self.diff = on_store(diff_task, store_root)
 
 
-def submit_chain(tasks: StageTasks, source: Path, settings: ChainSettings, name: str | None = None) -> Chain:
-    """Submit ingest → learn (segment, fit, grasp) → store → simulate, diff for one recording; returns futures.
+def submit_chain(
+    tasks: StageTasks,
+    source: Path,
+    settings: ChainSettings,
+    name: str | None = None,
+    ingested: PrefectFuture[RecordingRef] | None = None,
+) -> Chain:
+    """Submit ingest → segment → fit → grasp → store → simulate, diff for one recording; returns futures.
 
     ``name`` names the descriptor (default: ``settings.name``, else learning's ``<action>-<object>``).
     """
-    root = settings.store_root
-    ingested = tasks.ingest.submit(str(source), root)
-    learned = tasks.learn.submit(root, ingested, settings.params, name=name or settings.name, seed=settings.seed)
+    root, params, seed = settings.store_root, settings.params, settings.seed
+    ingested = ingested or tasks.ingest.submit(str(source), root)
+    segmented = tasks.segment.submit(root, ingested, params, seed=seed)
+    fitted = tasks.fit.submit(root, segmented, params)
+    learned = tasks.grasp.submit(root, fitted, params, grasp=settings.grasp, name=name or settings.name, seed=seed)
     stored = tasks.store.submit(root, learned)
     if settings.scene_seed is None:  # the scene instance the recording's meta names (pbd synth), else nominal
         simulated = tasks.simulate.submit(root, stored, recording=ingested)
@@ -79,7 +95,9 @@ def submit_chain(tasks: StageTasks, source: Path, settings: ChainSettings, name:
     diffed = tasks.diff.submit(root, stored)
     futures: dict[str, PrefectFuture[Any]] = {
         "ingest": ingested,
-        "learn": learned,
+        "segment": segmented,
+        "fit": fitted,
+        "grasp": learned,
         "store": stored,
         "simulate": simulated,
         "diff": diffed,
@@ -87,21 +105,24 @@ def submit_chain(tasks: StageTasks, source: Path, settings: ChainSettings, name:
     return Chain(source, futures)
 
 
-def collect(chain: Chain) -> EntryResult:
-    """Wait for a chain and summarise it; the first failed stage's error names the recording's failure."""
+def collect(chain: Chain, timeout_s: float = STAGE_TIMEOUT_S) -> EntryResult:
+    """Wait for a chain and summarise it; the first failed stage's error names the recording's failure. A stage
+    without a result ``timeout_s`` after it is waited for fails the recording ("timed out")."""
     results: dict[str, Any] = {}
     error: str | None = None
     for stage, future in chain.futures.items():
-        future.wait()
+        future.wait(timeout=timeout_s)
         state = future.state
-        if state.is_completed():
+        if not state.is_final():
+            error = error or f"{stage}: timed out (no result {timeout_s:.0f} s after it was waited for)"
+        elif state.is_completed():
             results[stage] = future.result()
         elif error is None:
             value = state.result(raise_on_failure=False) if state.is_failed() or state.is_crashed() else None
             error = f"{stage}: {value}" if isinstance(value, BaseException) else f"{stage}: {state.name}"
-    desc = results.get("learn")
+    desc = results.get("grasp")
     extra = {"chain": " → ".join(p.kind for p in desc.chain) or "(empty)"} if desc is not None else {}
-    return EntryResult(
+    entry = EntryResult(
         source=str(chain.source),
         recording=results.get("ingest"),
         descriptor=results.get("store"),
@@ -110,44 +131,80 @@ def collect(chain: Chain) -> EntryResult:
         error=error,
         extra=extra,
     )
+    get_run_logger().log(logging.ERROR if error else logging.INFO, "%s", outcome_line(entry))
+    return entry
 
 
-def archive_names(archive: Path, sources: Sequence[Path]) -> dict[Path, str]:
-    """One descriptor name per recording of an archive: its path under ``archive`` without suffixes, slugged.
+def outcome_line(entry: EntryResult) -> str:
+    """One log line per recording: chain learned, version stored (new, unchanged, changed), simulation result."""
+    name = Path(entry.source).name
+    if entry.error is not None:
+        return f"{name}: failed at {entry.error}"
+    d, sim = entry.descriptor, entry.simulation
+    stored = f"{d.ref} {entry.status} ({d.id[:12]})" if d else "not stored"
+    if sim is None:
+        simulated = "not simulated"
+    elif sim.skipped is not None:
+        simulated = f"not simulated ({sim.skipped})"
+    else:
+        reached = ", ".join(f"{a / t:.0%}" for a, t in zip(sim.achieved, sim.target, strict=False) if t)
+        simulated = f"simulation {'success' if sim.success else 'FAILED'} in {sim.scene}" + (
+            f" (extent reached {reached})" if reached else ""
+        )
+    return f"{name}: chain {entry.extra.get('chain', '?')}; {stored}; {simulated}"
 
-    Several demonstrations of one task in an archive each keep their own version history, so re-running
-    an unchanged archive finds every descriptor unchanged.
-    """
-    out = {}
-    for source in sources:
-        rel = source.relative_to(archive) if source.is_relative_to(archive) else Path(source.name)
-        stem = "-".join([*rel.parent.parts, rel.name.split(".")[0]])
-        out[source] = re.sub(r"[^A-Za-z0-9._-]+", "-", stem).strip("-._") or "recording"
-    return out
+
+def run_names(
+    sources: Sequence[Path], metas: Mapping[Path, Mapping[str, Any]], root: Path | None = None
+) -> dict[Path, str]:
+    """The descriptor name of each recording of a run, by the one naming rule of every entry point:
+    ``<action>-<object>`` from the recording's meta, else the file name without suffixes; when several recordings
+    of the run get the same name, each of them is ``<name>--<path>``, its path under ``root`` (else its file
+    name) without suffixes, so each keeps a version history of its own."""
+    names = {s: name_from_meta(metas.get(s, {}), s) or "recording" for s in sources}
+    shared = {n for n in names.values() if list(names.values()).count(n) > 1}
+    for source, name in names.items():
+        if name in shared:
+            rel = source.relative_to(root) if root and source.is_relative_to(root) else Path(source.name)
+            names[source] = f"{name}--{slug('-'.join([*rel.parent.parts, rel.name.split('.')[0]]))}"
+    return names
 
 
 def run_chains(
     sources: Sequence[Path],
     settings: ChainSettings,
     workers: int,
-    names: Mapping[Path, str] | None = None,
-    submit: Callable[..., Chain] = submit_chain,
+    root: Path | None = None,
 ) -> list[EntryResult]:
     """Process ``sources`` with at most ``workers`` recordings in flight; results in the order of ``sources``.
 
-    ``names`` gives a recording's descriptor name (see ``archive_names``); by default learning names it.
+    Every recording is ingested first, so that each is named by ``run_names`` (unless ``settings.name`` names
+    them all); ``root`` is the archive folder the names' paths are taken under.
     """
     tasks = StageTasks(settings.store_root)
-    pending = deque(sources)
-    running: dict[PrefectFuture[Any], Chain] = {}
-    results: dict[Path, EntryResult] = {}
+    store = Store(settings.store_root)
     notify(0, len(sources), "")
+    ingested = {source: tasks.ingest.submit(str(source), settings.store_root) for source in sources}
+    metas: dict[Path, dict[str, Any]] = {}
+    results: dict[Path, EntryResult] = {}
+    for source, future in ingested.items():
+        future.wait()
+        if future.state.is_completed():
+            metas[source] = recording_meta(store.recording_dir(future.result().recording_id))
+        else:  # nothing downstream of a recording that cannot be read
+            results[source] = collect(Chain(source, {"ingest": future}))
+    names = run_names(sources, metas, root)
+    pending = deque(s for s in sources if s not in results)
+    running: dict[PrefectFuture[Any], Chain] = {}
     while pending or running:
         while pending and len(running) < max(1, workers):
             source = pending.popleft()
-            chain = submit(tasks, source, settings, (names or {}).get(source))
+            chain = submit_chain(tasks, source, settings, settings.name or names[source], ingested[source])
             running[chain.last] = chain
-        done = next(iter(as_completed(list(running))))
+        try:
+            done = next(iter(as_completed(list(running), timeout=STAGE_TIMEOUT_S)))
+        except TimeoutError:
+            done = next(iter(running))  # none finished in time: the oldest is collected, its stuck stage timed out
         finished = running.pop(done)
         results[finished.source] = collect(finished)
         notify(len(results), len(sources), finished.source.name)

@@ -1,41 +1,32 @@
-"""Flow ``pbd-demo``: the sample recordings of the paper's four tasks (made when missing, by
+"""Flow ``pbd-demo``: the sample recordings of the paper's four tasks (made when missing by
 ``tasks.synth.samples.ensure_sample_recordings``) through the whole pipeline, then the report."""
 
 from __future__ import annotations
 
-import importlib
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 from prefect import flow, task
 from prefect.cache_policies import NO_CACHE
+from prefect.client.schemas.objects import State
 from prefect.task_runners import ThreadPoolTaskRunner
 
 from flows.chain import ChainSettings, run_chains
 from flows.reprocess_archive import DEFAULT_WORKERS, MAX_THREADS
-from flows.summary import RunSummary, summarise
-from tasks.errors import NotBuiltError
-from tasks.report.task import report_task
+from flows.stages.report import report_task
+from flows.summary import RunSummary, finish
 from tasks.store import resolve_store_root
+from tasks.synth.samples import ensure_sample_recordings
 
 DEFAULT_SAMPLES = "data/recordings"
-SYNTH_ISSUE = 3
-
-
-def sample_recordings_maker() -> Any:
-    """The synth stage's ``ensure_sample_recordings``; ``NotBuiltError`` while that stage is not built."""
-    try:
-        samples = importlib.import_module("tasks.synth.samples")
-    except ImportError as err:
-        raise NotBuiltError("demo", SYNTH_ISSUE) from err
-    return samples.ensure_sample_recordings
+"""Folder of the sample recordings (made there when missing)."""
 
 
 @task(name="sample-recordings", cache_policy=NO_CACHE, persist_result=False)
 def sample_recordings_task(folder: str) -> list[str]:
     """Paths of the sample recordings under ``folder``, written when missing (the folder is the cache)."""
-    made = sample_recordings_maker()(Path(folder))
+    made = ensure_sample_recordings(Path(folder))
     paths = made.values() if isinstance(made, Mapping) else made
     return sorted(str(p) for p in paths)
 
@@ -45,7 +36,7 @@ def demo(
     store: str | None = None,
     samples: str = DEFAULT_SAMPLES,
     workers: int = DEFAULT_WORKERS,
-) -> RunSummary:
+) -> RunSummary | State[Any]:
     """Make the sample recordings under ``samples`` if missing, process each, write the report.
 
     Descriptors are named by the recordings' meta (``<action>-<object>``), one per task.
@@ -54,4 +45,4 @@ def demo(
     sources = [Path(p) for p in sample_recordings_task(str(Path(samples).resolve()))]
     entries = run_chains(sources, ChainSettings(root), workers=workers)
     html = report_task(root, "pbd demo: the four sample tasks", entries)
-    return summarise(entries, html)
+    return finish(entries, html)

@@ -18,13 +18,19 @@ TIMEZONE = "UTC"
 
 
 def build_deployments(
-    archive: str, store: str, *, cron: str = NIGHTLY_CRON, workers: int = DEFAULT_WORKERS
+    archive: str,
+    store: str,
+    *,
+    cron: str = NIGHTLY_CRON,
+    workers: int = DEFAULT_WORKERS,
+    address: str | None = None,
 ) -> list[RunnerDeployment]:
-    """The two deployments with their default parameters (absolute paths, so runs find them from anywhere)."""
+    """The two deployments with their default parameters (absolute paths, so runs find them from anywhere);
+    ``address``: the Dask scheduler the nightly run's tasks go to (None: threads of the serving process)."""
     nightly = reprocess_archive.to_deployment(
         name="nightly",
         cron=cron,
-        parameters={"archive": archive, "store": store, "workers": workers},
+        parameters={"archive": archive, "store": store, "workers": workers, "address": address},
         description="Reprocess every recording under the archive folder; report what changed.",
         tags=["pbd"],
         entrypoint_type=EntrypointType.MODULE_PATH,

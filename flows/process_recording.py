@@ -1,4 +1,4 @@
-"""Flow ``process-recording``: one recording through ingest, learn (segment, fit, grasp), store, and report."""
+"""Flow ``process-recording``: one recording through ingest, segment, fit, grasp, store, simulate, and report."""
 
 from __future__ import annotations
 
@@ -6,11 +6,12 @@ from pathlib import Path
 from typing import Any
 
 from prefect import flow
+from prefect.client.schemas.objects import State
 from prefect.task_runners import ThreadPoolTaskRunner
 
 from flows.chain import ChainSettings, run_chains
-from flows.summary import RunSummary, summarise
-from tasks.report.task import report_task
+from flows.stages.report import report_task
+from flows.summary import RunSummary, finish
 from tasks.store import resolve_store_root
 
 
@@ -23,10 +24,12 @@ def process_recording(
     name: str | None = None,
     seed: int = 0,
     report: bool = True,
-) -> RunSummary:
-    """Ingest → learn → store (→ simulate) → report for the recording at ``recording`` (file or rosbag2 folder)."""
+    grasp: dict[str, Any] | None = None,
+) -> RunSummary | State[Any]:
+    """Ingest → segment → fit → grasp → store → simulate → report for the recording at ``recording`` (file or
+    rosbag2 folder); ends Failed when the recording fails."""
     root = str(resolve_store_root(store).resolve())
-    settings = ChainSettings(root, dict(params or {}), seed, name)
+    settings = ChainSettings(root, dict(params or {}), seed, name, grasp=dict(grasp or {}))
     entries = run_chains([Path(recording)], settings, workers=1)
     html = report_task(root, f"process-recording {Path(recording).name}", entries) if report else None
-    return summarise(entries, html)
+    return finish(entries, html)

@@ -11,6 +11,8 @@ from __future__ import annotations
 from collections.abc import Iterator
 from contextlib import contextmanager
 
+from prefect.settings import temporary_settings
+
 EPHEMERAL_STARTUP_TIMEOUT_S = 180
 """Seconds to wait for the ephemeral server (measured 10 to 20 s here; slower under load on 2 cores)."""
 
@@ -18,7 +20,6 @@ EPHEMERAL_STARTUP_TIMEOUT_S = 180
 @contextmanager
 def cli_settings() -> Iterator[None]:
     """Prefect settings for an in-process CLI run: longer ephemeral start-up, no per-run heartbeat."""
-    from prefect.settings import temporary_settings  # noqa: PLC0415
 
     updates = {
         "server.ephemeral.startup_timeout_seconds": EPHEMERAL_STARTUP_TIMEOUT_S,

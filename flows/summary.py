@@ -4,9 +4,18 @@ from __future__ import annotations
 
 from collections import Counter
 from collections.abc import Sequence
-from typing import Any, TypedDict
+from pathlib import Path
+from typing import Any, TypedDict, cast
 
+from prefect.client.schemas.objects import State
+from prefect.states import Failed
+
+from tasks.errors import PbdError
 from tasks.report.refs import EntryResult
+
+
+class FlowError(PbdError):
+    """A flow run ended without a summary (it failed before processing any recording)."""
 
 
 class RunSummary(TypedDict):
@@ -48,3 +57,24 @@ def summarise(entries: Sequence[EntryResult], report_html: str | None) -> RunSum
         "entries": rows,
         "report": report_html,
     }
+
+
+def finish(entries: Sequence[EntryResult], report_html: str | None) -> RunSummary | State[Any]:
+    """What a flow returns: the summary, or a Failed state holding it when any recording failed (the others'
+    results stay in the store, the summary and the report)."""
+    summary = summarise(entries, report_html)
+    failed = [e for e in entries if e.status == "failed"]
+    if not failed:
+        return summary
+    first = failed[0]
+    msg = f"{len(failed)} of {len(entries)} recordings failed; first: {Path(first.source).name}: {first.error}"
+    return Failed(message=msg, data=summary)
+
+
+def summary_of(state: State[Any]) -> RunSummary:
+    """The run summary a flow run's final state holds (Completed or Failed); ``FlowError`` when it holds none."""
+    value = state.result(raise_on_failure=False)
+    if isinstance(value, dict) and "counts" in value:
+        return cast(RunSummary, value)
+    msg = f"flow run ended {state.name}: {state.message or value}"
+    raise FlowError(msg)

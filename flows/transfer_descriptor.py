@@ -5,14 +5,14 @@ from __future__ import annotations
 from prefect import flow
 
 from flows.caching import on_store
+from flows.stages.diff import diff_task
+from flows.stages.learn import store_descriptor_task
+from flows.stages.report import report_task
+from flows.stages.simulate import simulate_task
+from flows.stages.transfer import resolve_descriptor_task, target_model_task, transfer_task
 from flows.summary import RunSummary, summarise
-from tasks.diff.task import diff_task
-from tasks.learn.task import store_descriptor_task
 from tasks.report.refs import EntryResult, RecordingRef
-from tasks.report.task import report_task
-from tasks.simulate.task import simulate_task
 from tasks.store import resolve_store_root
-from tasks.transfer.task import resolve_descriptor_task, target_model_task, transfer_task
 
 
 @flow(name="transfer-descriptor", persist_result=False)

@@ -15,7 +15,8 @@ from functools import cache
 from importlib import resources
 from typing import Any, Literal
 
-from tasks.errors import DescriptorError
+from schemas.errors import DescriptorError
+from schemas.limits import MAX_DESCRIPTOR_BYTES, check_shape, check_values, clip
 
 DESCRIPTOR_SCHEMA = "pbd.task-descriptor/1"
 FLOAT_DIGITS = 10
@@ -232,15 +233,42 @@ class Descriptor:
 
     @classmethod
     def from_json(cls, text: str, source: str = "descriptor") -> Descriptor:
-        """Parse JSON text, validate and build."""
+        """Parse JSON text (at most ``MAX_DESCRIPTOR_BYTES``; no NaN or Infinity), validate and build."""
+        if len(text) > MAX_DESCRIPTOR_BYTES:
+            msg = f"{len(text)} characters, larger than a descriptor can be ({MAX_DESCRIPTOR_BYTES} bytes)"
+            raise DescriptorError(source, msg)
         try:
-            doc = json.loads(text)
+            doc = json.loads(text, parse_constant=_reject_constant)
         except json.JSONDecodeError as err:
             msg = f"not JSON ({err.msg} at line {err.lineno} column {err.colno})"
+            raise DescriptorError(source, msg) from err
+        except ValueError as err:  # a NaN or Infinity literal (``_reject_constant``)
+            raise DescriptorError(source, str(err)) from err
+        except RecursionError as err:
+            msg = "JSON nested too deeply to parse"
             raise DescriptorError(source, msg) from err
         if not isinstance(doc, dict):
             raise DescriptorError(source, "not a JSON object")
         return cls.from_dict(doc, source=source)
+
+    @classmethod
+    def from_bytes(cls, data: bytes, source: str = "descriptor") -> Descriptor:
+        """Decode UTF-8 JSON bytes (at most ``MAX_DESCRIPTOR_BYTES``), validate and build."""
+        if len(data) > MAX_DESCRIPTOR_BYTES:
+            msg = f"{len(data)} bytes, larger than a descriptor can be ({MAX_DESCRIPTOR_BYTES} bytes)"
+            raise DescriptorError(source, msg)
+        try:
+            text = data.decode("utf-8")
+        except UnicodeDecodeError as err:
+            msg = f"not UTF-8 text (byte {err.start} is {data[err.start : err.start + 1]!r})"
+            raise DescriptorError(source, msg) from err
+        return cls.from_json(text, source=source)
+
+
+def _reject_constant(name: str) -> float:
+    """``json.loads`` hook for the non-standard literals NaN, Infinity and -Infinity: refuse them."""
+    msg = f"non-finite number {name} (descriptor values must be finite)"
+    raise ValueError(msg)
 
 
 def content_id(desc: Descriptor) -> str:
@@ -263,13 +291,16 @@ def json_schema() -> Json:
 
 
 def validate(doc: Json, source: str = "descriptor") -> None:
-    """Validate a descriptor document; raise ``DescriptorError`` naming the field and what is wrong."""
+    """Validate a descriptor document against the limits (``schemas.limits``) and the JSON Schema; raise
+    ``DescriptorError`` naming the field, what is wrong and the limit."""
     import jsonschema  # noqa: PLC0415 - kept out of CLI start-up
 
+    check_shape(doc, source)
     validator = jsonschema.Draft202012Validator(json_schema())
-    errors = sorted(validator.iter_errors(doc), key=lambda e: list(e.path))
+    errors = sorted(validator.iter_errors(doc), key=lambda e: [str(p) for p in e.path])
     if errors:
         err = errors[0]
-        where = "/".join(str(p) for p in err.path) or "(top)"
-        msg = f"schema {DESCRIPTOR_SCHEMA}: at {where}: {err.message}"
+        where = clip("/".join(str(p) for p in err.path) or "(top)")
+        msg = f"schema {DESCRIPTOR_SCHEMA}: at {where}: {clip(err.message)}"
         raise DescriptorError(source, msg)
+    check_values(doc, source)

@@ -1,12 +1,25 @@
-"""One exception family for pbd. The CLI turns a ``PbdError`` into one line on stderr and exit 2."""
+"""One exception family for pbd (root ``PbdError`` in ``schemas.errors``). The CLI turns a ``PbdError`` into one
+line on stderr and exit 2."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
+from schemas.errors import DescriptorError, PbdError
 
-class PbdError(Exception):
-    """Root of every error pbd raises on purpose (bad input, failed fit, store conflict)."""
+__all__ = [
+    "DescriptorError",
+    "FitError",
+    "GraspError",
+    "PbdError",
+    "RecordingError",
+    "SceneError",
+    "SimulationError",
+    "StoreError",
+    "TopicMapError",
+    "TransferError",
+    "TruncatedRecordingError",
+]
 
 
 class RecordingError(PbdError):
@@ -15,9 +28,9 @@ class RecordingError(PbdError):
     def __init__(self, path: str | Path, what: str, topic: str | None = None) -> None:
         self.path = str(path)
         self.topic = topic
-        self.what = what
-        where = f"{self.path}" + (f" topic {topic}" if topic else "")
-        super().__init__(f"{where}: {what}")
+        self.what = one_line(what)
+        where = f"{self.path}" + (f" topic {one_line(topic, NAME_CHARS)}" if topic else "")
+        super().__init__(f"{where}: {self.what}")
 
 
 class TruncatedRecordingError(RecordingError):
@@ -34,15 +47,7 @@ class TopicMapError(PbdError):
 
     def __init__(self, path: str | Path, what: str) -> None:
         self.path = str(path)
-        super().__init__(f"{path}: {what}")
-
-
-class DescriptorError(PbdError):
-    """A descriptor is malformed, fails its JSON Schema, or cannot be resolved."""
-
-    def __init__(self, source: str | Path, what: str) -> None:
-        self.source = str(source)
-        super().__init__(f"{source}: {what}")
+        super().__init__(f"{path}: {one_line(what)}")
 
 
 class StoreError(PbdError):
@@ -83,10 +88,24 @@ class SimulationError(PbdError):
     """A descriptor does not fit the scene it is executed in."""
 
 
-class NotBuiltError(PbdError):
-    """A command whose capability has not been built yet."""
+NAMES_SHOWN = 5
+"""Names an error or warning lists before "and N more": enough to recognise them, and the line stays short."""
+NAME_CHARS = 120
+"""Characters of one name shown in an error or warning line (a topic or marker name is rarely longer)."""
 
-    def __init__(self, command: str, issue: int) -> None:
-        self.command = command
-        self.issue = issue
-        super().__init__(f"not built yet (tracked in issue {issue})")
+
+LINE_CHARS = 400
+"""Characters of the part of an error line that comes from the input (a message, a name): longer text is cut."""
+
+
+def one_line(text: str, limit: int = LINE_CHARS) -> str:
+    """``text`` on one line (line breaks become spaces), cut to ``limit`` characters."""
+    flat = " ".join(text.split("\n")).replace("\r", " ")
+    return flat if len(flat) <= limit else flat[: limit - 3] + "..."
+
+
+def bounded(names: list[str] | tuple[str, ...], first: int = NAMES_SHOWN) -> str:
+    """``a, b, c`` or ``a, b, c, d, e and 7 more``: at most ``first`` names, each cut to ``NAME_CHARS``."""
+    shown = [n if len(n) <= NAME_CHARS else n[: NAME_CHARS - 3] + "..." for n in names[:first]]
+    more = len(names) - len(shown)
+    return ", ".join(shown) + (f" and {more} more" if more > 0 else "")

@@ -8,9 +8,14 @@ Layout under the store root::
     reports/<run id>/report.html      and the plots it shows
     models/<sha256>.parquet           object model point clouds referenced by descriptors (x, y, z float32)
     tmp/                              staging area; everything is written here first, then renamed
+    quarantine/                       what a repair took out of the way (never read again; inspect or delete)
 
-Writes are atomic (temporary file or folder, then rename) and safe with several processes writing at once
-(an ``fcntl`` lock per descriptor name). Nothing is ever overwritten.
+Writes are atomic (temporary file or folder, then rename or link) and safe with several processes writing at
+once (an ``fcntl`` lock per descriptor name, and a shared lock on ``.staging.lock`` while a folder is staged).
+Nothing is ever overwritten. Each protocol is ordered so that a kill or a full disk at any step leaves a store
+the next write repairs (``docs/store.md``): staged folders of dead writers are removed, a version file the
+index does not list yet is adopted when it is whole and valid and quarantined otherwise, so a name is never
+blocked. A write that fails is one ``StoreError`` line naming the path and the cause.
 """
 
 from __future__ import annotations
@@ -19,22 +24,56 @@ import contextlib
 import datetime as dt
 import fcntl
 import hashlib
-import json
 import os
 import re
 import shutil
 import tempfile
+import uuid
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+
 from schemas.descriptor import Descriptor
+from schemas.limits import MAX_DESCRIPTOR_BYTES
+from schemas.tables import OBJECT_MODEL_SCHEMA
+from tasks.atomic import DIR_MODE, FILE_MODE, checkpoint, fsync_dir, write_bytes_atomic, write_errors
 from tasks.errors import DescriptorError, StoreError
+from tasks.store_index import VersionEntry, adoptable, lists, read_index, write_index
+
+__all__ = [
+    "DEFAULT_STORE",
+    "DIR_MODE",
+    "FILE_MODE",
+    "PutResult",
+    "Store",
+    "VersionEntry",
+    "model_sha256",
+    "resolve_store_root",
+    "write_bytes_atomic",
+]
 
 DEFAULT_STORE = Path("data/store")
 _REF_VERSION = re.compile(r"^(?P<name>[A-Za-z0-9][A-Za-z0-9._-]*)@(?P<ver>v\d+|latest)$")
 _HEX_PREFIX = re.compile(r"^[0-9a-f]{8,64}$")
+_VERSION_FILE = re.compile(r"^v(?P<n>[1-9][0-9]{0,8})\.json$")
+
+STAGE_STEPS = ("stage.created", "stage.publishing", "stage.published")
+"""Steps of staging a folder (ingest, report) and renaming it into place."""
+MODEL_STEPS = ("model.written", "model.linked")
+"""Steps of storing an object model (a staged Parquet file hard-linked under its sha256)."""
+DESCRIPTOR_STEPS = (
+    "descriptor.locked",
+    "descriptor.version.written",
+    "descriptor.version.linked",
+    "descriptor.index.written",
+    "descriptor.index.linked",
+)
+"""Steps of storing a descriptor version: the version file first, then the index that lists it."""
 
 
 def resolve_store_root(arg: str | os.PathLike[str] | None) -> Path:
@@ -43,56 +82,6 @@ def resolve_store_root(arg: str | os.PathLike[str] | None) -> Path:
         return Path(arg)
     env = os.environ.get("PBD_STORE")
     return Path(env) if env else DEFAULT_STORE
-
-
-def write_bytes_atomic(path: Path, data: bytes, *, overwrite: bool = False) -> None:
-    """Write ``data`` to ``path`` through a temporary file in the same folder, then rename.
-
-    Refuses to replace an existing file unless ``overwrite`` (only indexes are rewritten).
-    """
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
-        if overwrite:
-            Path(tmp).replace(path)
-        else:
-            try:
-                os.link(tmp, path)  # fails if path exists: no overwrite, even under a race
-            except FileExistsError as err:
-                msg = "refusing to overwrite an existing artefact"
-                raise StoreError(path, msg) from err
-            Path(tmp).unlink()
-    except BaseException:
-        with contextlib.suppress(FileNotFoundError):
-            Path(tmp).unlink()
-        raise
-
-
-@dataclass(frozen=True)
-class VersionEntry:
-    """One row of ``descriptors/<name>/index.json``."""
-
-    version: int
-    id: str
-    created: str
-    recording: str | None
-    parameters: dict[str, Any]
-    code_version: str
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready row."""
-        return {
-            "version": self.version,
-            "id": self.id,
-            "created": self.created,
-            "recording": self.recording,
-            "parameters": self.parameters,
-            "code_version": self.code_version,
-        }
 
 
 @dataclass(frozen=True)
@@ -138,6 +127,11 @@ class Store:
         """``tmp/``: staging for atomic renames (same file system as the artefacts)."""
         return self.root / "tmp"
 
+    @property
+    def quarantine_dir(self) -> Path:
+        """``quarantine/``: files a repair moved out of the way (never read by pbd)."""
+        return self.root / "quarantine"
+
     def recording_dir(self, recording_id: str) -> Path:
         """The Parquet folder of a recording (may not exist yet)."""
         return self.recordings_dir / recording_id
@@ -146,19 +140,51 @@ class Store:
         """True when the recording has been ingested completely."""
         return (self.recording_dir(recording_id) / "recording.json").is_file()
 
+    # -- staging ------------------------------------------------------------------------------------
+    def _sweep_tmp(self) -> None:
+        """Remove everything under ``tmp/``: called only while no other process stages (exclusive lock held)."""
+        for entry in self.tmp_dir.iterdir():
+            if entry.is_dir() and not entry.is_symlink():
+                shutil.rmtree(entry, ignore_errors=True)
+            else:
+                entry.unlink(missing_ok=True)
+
     @contextlib.contextmanager
     def staging(self, prefix: str = "stage") -> Iterator[Path]:
-        """A fresh temporary folder under ``tmp/``; removed on exit unless it was published."""
-        self.tmp_dir.mkdir(parents=True, exist_ok=True)
-        path = Path(tempfile.mkdtemp(dir=self.tmp_dir, prefix=f"{prefix}-"))
+        """A fresh temporary folder under ``tmp/``; removed on exit unless it was published.
+
+        While it exists this process holds a shared lock on ``.staging.lock``; a process that gets the lock
+        exclusively first knows nobody is staging and removes what dead writers left in ``tmp/``. An
+        ``OSError`` inside (no space, read-only) becomes a one-line ``StoreError`` and the folder is removed.
+        """
+        with write_errors(self.tmp_dir):
+            self.tmp_dir.mkdir(parents=True, exist_ok=True)
+            lock = (self.root / ".staging.lock").open("a")
         try:
-            yield path
+            try:
+                fcntl.flock(lock.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                fcntl.flock(lock.fileno(), fcntl.LOCK_SH)
+            else:
+                self._sweep_tmp()
+                fcntl.flock(lock.fileno(), fcntl.LOCK_SH)
+            with write_errors(self.tmp_dir):
+                path = Path(tempfile.mkdtemp(dir=self.tmp_dir, prefix=f"{prefix}-"))
+                path.chmod(DIR_MODE)  # mkdtemp's 0700 would make a published folder unreadable by the team
+            try:
+                with write_errors(path, doing=""):
+                    checkpoint("stage.created", path)
+                    yield path
+            finally:
+                shutil.rmtree(path, ignore_errors=True)
         finally:
-            shutil.rmtree(path, ignore_errors=True)
+            lock.close()
 
     def publish_dir(self, staged: Path, final: Path) -> bool:
         """Rename a staged folder into place; False (and nothing changed) when ``final`` already exists."""
-        final.parent.mkdir(parents=True, exist_ok=True)
+        with write_errors(final):
+            final.parent.mkdir(parents=True, exist_ok=True)
+            checkpoint("stage.publishing", final)
         try:
             staged.rename(final)
         except OSError as err:
@@ -166,45 +192,52 @@ class Store:
                 return False
             msg = f"cannot publish {staged.name}: {err.strerror}"
             raise StoreError(final, msg) from err
+        fsync_dir(final.parent)
+        with write_errors(final):
+            checkpoint("stage.published", final)
         return True
 
     # -- object models --------------------------------------------------------------------------------
+    def model_path(self, sha256: str) -> Path:
+        """``models/<sha256>.parquet``."""
+        return self.models_dir / f"{sha256}.parquet"
+
     def put_model(self, points_xyz: Any) -> tuple[str, Path]:
-        """Store an (n, 3) model point cloud (metres) as Parquet by its content sha256; returns (sha, path)."""
-        import numpy as np  # noqa: PLC0415
-        import pyarrow as pa  # noqa: PLC0415
-        import pyarrow.parquet as pq  # noqa: PLC0415
+        """Store an (n, 3) model point cloud (metres) as Parquet by its content sha256; returns (sha, path).
 
-        from schemas.tables import OBJECT_MODEL_SCHEMA  # noqa: PLC0415
-
+        The Parquet file is written in a staging folder and hard-linked into ``models/`` (a link never replaces
+        a file), so a kill leaves either no model or a whole one.
+        """
         pts = np.ascontiguousarray(np.asarray(points_xyz, dtype=np.float32).reshape(-1, 3))
-        sha = hashlib.sha256(pts.tobytes()).hexdigest()
-        path = self.models_dir / f"{sha}.parquet"
+        sha = model_sha256(pts)
+        path = self.model_path(sha)
         if path.exists():
             return sha, path
         table = pa.Table.from_arrays([pa.array(pts[:, i]) for i in range(3)], schema=OBJECT_MODEL_SCHEMA)
-        self.models_dir.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=self.models_dir, prefix=".model.", suffix=".tmp")
-        os.close(fd)
-        try:
+        with self.staging("model") as staged, write_errors(path):
+            tmp = staged / path.name
             pq.write_table(table, tmp)
+            checkpoint("model.written", path)
+            self.models_dir.mkdir(parents=True, exist_ok=True)
             with contextlib.suppress(FileExistsError):
                 os.link(tmp, path)
-        finally:
-            Path(tmp).unlink(missing_ok=True)
+            fsync_dir(self.models_dir)
+            checkpoint("model.linked", path)
         return sha, path
 
     def load_model(self, sha256: str) -> Any:
         """The (n, 3) float64 model point cloud stored under ``sha256``."""
-        import numpy as np  # noqa: PLC0415
-        import pyarrow.parquet as pq  # noqa: PLC0415
-
-        path = self.models_dir / f"{sha256}.parquet"
+        path = self.model_path(sha256)
         if not path.is_file():
             msg = f"object model {sha256[:12]}... is not in the store"
             raise StoreError(path, msg)
-        table = pq.read_table(path)
-        return np.column_stack([table.column(c).to_numpy() for c in ("x", "y", "z")]).astype(np.float64)
+        try:
+            table = pq.read_table(path)
+            cols = [table.column(c).to_numpy() for c in ("x", "y", "z")]
+        except (OSError, KeyError, pa.ArrowException) as err:
+            msg = f"unreadable object model ({type(err).__name__})"
+            raise StoreError(path, msg) from err
+        return np.column_stack(cols).astype(np.float64)
 
     # -- descriptors --------------------------------------------------------------------------------
     def descriptor_dir(self, name: str) -> Path:
@@ -214,8 +247,10 @@ class Store:
     @contextlib.contextmanager
     def _locked(self, name: str) -> Iterator[None]:
         folder = self.descriptor_dir(name)
-        folder.mkdir(parents=True, exist_ok=True)
-        with (folder / ".lock").open("a") as fh:
+        with write_errors(folder):
+            folder.mkdir(parents=True, exist_ok=True)
+            fh = (folder / ".lock").open("a")
+        with fh:
             fcntl.flock(fh.fileno(), fcntl.LOCK_EX)
             try:
                 yield
@@ -227,12 +262,7 @@ class Store:
         path = self.descriptor_dir(name) / "index.json"
         if not path.is_file():
             return []
-        try:
-            rows = json.loads(path.read_text())
-        except json.JSONDecodeError as err:
-            msg = f"corrupt index ({err.msg})"
-            raise StoreError(path, msg) from err
-        return [VersionEntry(**row) for row in rows]
+        return read_index(path)
 
     def names(self) -> list[str]:
         """Every descriptor name in the store, sorted."""
@@ -240,18 +270,58 @@ class Store:
             return []
         return sorted(p.name for p in self.descriptors_dir.iterdir() if (p / "index.json").is_file())
 
+    def _quarantine(self, path: Path, why: str) -> None:
+        """Move ``path`` to ``quarantine/<folder>/<name>.<why>.<unique>`` (never replacing anything)."""
+        folder = self.quarantine_dir / path.parent.relative_to(self.root)
+        folder.mkdir(parents=True, exist_ok=True)
+        path.rename(folder / f"{path.name}.{why}.{uuid.uuid4().hex[:12]}")
+
+    def _repaired_index(self, name: str) -> list[VersionEntry]:
+        """The index of ``name`` after repair (lock held): stale temporary files removed, version files the index
+        does not list adopted when whole, valid and next in line, quarantined otherwise; rewritten if changed."""
+        folder = self.descriptor_dir(name)
+        for tmp in folder.glob(".*.tmp"):  # a writer holding this lock would have removed its own
+            tmp.unlink(missing_ok=True)
+        index = folder / "index.json"
+        try:
+            entries = read_index(index) if index.is_file() else []
+        except StoreError:
+            self._quarantine(index, "corrupt")
+            entries = []
+        listed = {e.version for e in entries}
+        orphans = sorted(
+            int(m["n"]) for p in folder.iterdir() if (m := _VERSION_FILE.match(p.name)) and int(m["n"]) not in listed
+        )
+        adopted = list(entries)
+        for number in orphans:
+            path = folder / f"v{number}.json"
+            entry = adoptable(path, name, number, adopted)
+            if entry is None:
+                self._quarantine(path, "orphan")
+            else:
+                adopted.append(entry)
+        if len(adopted) != len(entries) or (adopted and not index.is_file()):
+            write_index(index, adopted)
+        return adopted
+
     def put_descriptor(self, desc: Descriptor) -> PutResult:
-        """Store ``desc`` as the next version of its name unless the latest version has the same id."""
+        """Store ``desc`` as the next version of its name unless the latest version has the same id.
+
+        Under the name's lock: repair (see ``_repaired_index``), write ``v<N>.json``, then rewrite
+        ``index.json`` to list it. A kill between the two leaves a whole version file that the next write
+        adopts; a failed index write removes the version file again. A failed write is a ``StoreError`` naming
+        the path and the cause.
+        """
         text = desc.to_json()
-        with self._locked(desc.name):
-            entries = self.versions(desc.name)
-            folder = self.descriptor_dir(desc.name)
+        folder = self.descriptor_dir(desc.name)
+        with self._locked(desc.name), write_errors(folder):
+            checkpoint("descriptor.locked", folder)
+            entries = self._repaired_index(desc.name)
             if entries and entries[-1].id == desc.id:
                 last = entries[-1]
                 return PutResult(desc.name, last.version, last.id, False, folder / f"v{last.version}.json")
             version = entries[-1].version + 1 if entries else 1
-            path = folder / f"v{version}.json"
-            write_bytes_atomic(path, text.encode())
+            path = folder / f"v{version}.json"  # absent: the repair adopted or quarantined any orphan
             entry = VersionEntry(
                 version=version,
                 id=desc.id,
@@ -260,8 +330,13 @@ class Store:
                 parameters=desc.parameters,
                 code_version=desc.code_version,
             )
-            rows = [e.to_dict() for e in [*entries, entry]]
-            write_bytes_atomic(folder / "index.json", (json.dumps(rows, indent=2) + "\n").encode(), overwrite=True)
+            try:
+                write_bytes_atomic(path, text.encode(), step="descriptor.version")
+                write_index(folder / "index.json", [*entries, entry])
+            except BaseException:  # nothing left behind: the version file is ours while the lock is held
+                if not lists(folder / "index.json", version):
+                    path.unlink(missing_ok=True)
+                raise
         return PutResult(desc.name, version, desc.id, True, path)
 
     def descriptor_path(self, name: str, version: int) -> Path:
@@ -299,15 +374,25 @@ class Store:
                 raise DescriptorError(ref, msg)
             msg = f"no descriptor with id starting {ref} in store {self.root}"
             raise DescriptorError(ref, msg)
+        if path.exists():
+            msg = "not a regular file (a folder, a FIFO or a device)"
+            raise DescriptorError(ref, msg)
         msg = "not a file, a content id, nor name@vN / name@latest"
         raise DescriptorError(ref, msg)
 
     def load(self, ref: str) -> Descriptor:
-        """Load and validate a descriptor given as in ``resolve``."""
+        """Load and validate a descriptor given as in ``resolve`` (at most ``MAX_DESCRIPTOR_BYTES``)."""
         path = self.resolve(ref)
         try:
-            text = path.read_text()
+            with path.open("rb") as fh:
+                data = fh.read(MAX_DESCRIPTOR_BYTES + 1)
         except OSError as err:
             msg = f"cannot read: {err.strerror}"
             raise DescriptorError(path, msg) from err
-        return Descriptor.from_json(text, source=str(path))
+        return Descriptor.from_bytes(data, source=str(path))
+
+
+def model_sha256(points_xyz: Any) -> str:
+    """The key of an (n, 3) model point cloud in ``models/``: sha256 of its float32 x, y, z bytes."""
+    pts = np.ascontiguousarray(np.asarray(points_xyz, dtype=np.float32).reshape(-1, 3))
+    return hashlib.sha256(pts.tobytes()).hexdigest()

@@ -3,12 +3,14 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from schemas.descriptor import Descriptor, Grasp, Primitive
+from tasks.arrays import FloatArray
 
 
 @dataclass(frozen=True)
@@ -107,19 +109,38 @@ def _summary(p: Primitive, index: int) -> dict[str, Any]:
     }
 
 
+def _unit(v: tuple[float, ...]) -> FloatArray | None:
+    """``v`` scaled to length 1, or None when it has no direction (zero length, NaN or infinite entries)."""
+    arr = np.asarray(v, dtype=np.float64)
+    norm = float(np.linalg.norm(arr))
+    if not (np.isfinite(arr).all() and np.isfinite(norm) and norm > 0.0):
+        return None
+    out: FloatArray = arr / norm
+    return out
+
+
 def compare_primitives(pa: Primitive, pb: Primitive, ia: int, ib: int) -> PrimitiveChange:
-    """Axis angle (deg), axis offset (mm: B's axis point to A's axis line; rotations only) and extent change."""
-    da = np.asarray(pa.dir, dtype=np.float64)
-    db = np.asarray(pb.dir, dtype=np.float64)
-    cos = float(np.dot(da, db) / (np.linalg.norm(da) * np.linalg.norm(db)))
-    angle = float(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))))
+    """Axis angle (deg), axis offset (mm: B's axis point to A's axis line; rotations only) and extent change.
+
+    An axis without a direction (zero, NaN or infinite) gives NaN figures, which count as a change.
+    """
+    ua, ub = _unit(pa.dir), _unit(pb.dir)
+    angle = math.nan
+    if ua is not None and ub is not None:
+        angle = float(np.degrees(np.arccos(np.clip(float(np.dot(ua, ub)), -1.0, 1.0))))
     offset = None
     if pa.kind == "rotation" and pa.pos is not None and pb.pos is not None:
-        u = da / np.linalg.norm(da)
-        w = np.asarray(pb.pos) - np.asarray(pa.pos)
-        offset = float(np.linalg.norm(w - np.dot(w, u) * u) * 1000.0)
+        offset = math.nan
+        if ua is not None:
+            w = np.asarray(pb.pos, dtype=np.float64) - np.asarray(pa.pos, dtype=np.float64)
+            offset = float(np.linalg.norm(w - np.dot(w, ua) * ua) * 1000.0)
     unit = "rad" if pa.kind == "rotation" else "m"
     return PrimitiveChange(ia, ib, pa.kind, angle, offset, float(pb.extent - pa.extent), unit)
+
+
+def _beyond(value: float, tolerance: float) -> bool:
+    """True when ``value`` exceeds ``tolerance`` or is NaN (a figure that cannot be computed is a change)."""
+    return not value <= tolerance
 
 
 def _grasp_change(ga: Grasp | None, gb: Grasp | None, tol: Tolerances) -> tuple[dict[str, Any] | None, bool]:
@@ -130,13 +151,14 @@ def _grasp_change(ga: Grasp | None, gb: Grasp | None, tol: Tolerances) -> tuple[
         return {"change": "added" if ga is None else "removed"}, True
     d_eig = [float(y - x) for x, y in zip(ga.eigengrasps, gb.eigengrasps, strict=True)]
     d_pos = float(np.linalg.norm(np.subtract(gb.wrist_position, ga.wrist_position)) * 1000.0)
-    qa = np.asarray(ga.wrist_orientation) / np.linalg.norm(ga.wrist_orientation)
-    qb = np.asarray(gb.wrist_orientation) / np.linalg.norm(gb.wrist_orientation)
-    d_rot = float(np.degrees(2.0 * np.arccos(np.clip(abs(float(np.dot(qa, qb))), 0.0, 1.0))))
+    qa, qb = _unit(ga.wrist_orientation), _unit(gb.wrist_orientation)
+    d_rot = math.nan
+    if qa is not None and qb is not None:
+        d_rot = float(np.degrees(2.0 * np.arccos(np.clip(abs(float(np.dot(qa, qb))), 0.0, 1.0))))
     changed = (
-        max(abs(x) for x in d_eig) > tol.eigengrasp
-        or d_pos > tol.offset_mm
-        or d_rot > tol.angle_deg
+        any(_beyond(abs(x), tol.eigengrasp) for x in d_eig)
+        or _beyond(d_pos, tol.offset_mm)
+        or _beyond(d_rot, tol.angle_deg)
         or ga.hand != gb.hand
     )
     desc = {"change": "changed" if changed else "same", "eigengrasps": d_eig, "wrist_offset_mm": d_pos}
@@ -156,9 +178,9 @@ def diff_descriptors(a: Descriptor, b: Descriptor, tol: Tolerances | None = None
     significant = tuple(
         c
         for c in changes
-        if c.axis_angle_deg > tol.angle_deg
-        or (c.axis_offset_mm is not None and c.axis_offset_mm > tol.offset_mm)
-        or abs(c.extent_change) > tol.extent
+        if _beyond(c.axis_angle_deg, tol.angle_deg)
+        or (c.axis_offset_mm is not None and _beyond(c.axis_offset_mm, tol.offset_mm))
+        or _beyond(abs(c.extent_change), tol.extent)
     )
     grasp, grasp_changed = _grasp_change(a.grasp, b.grasp, tol)
     fields = {}
@@ -171,7 +193,7 @@ def diff_descriptors(a: Descriptor, b: Descriptor, tol: Tolerances | None = None
             fields[key] = [va, vb]
     if a.object.model_sha256 != b.object.model_sha256:
         fields["object_model"] = [str(a.object.model_sha256), str(b.object.model_sha256)]
-    same = a.id == b.id or not (removed or added or significant or grasp_changed or any(k != "name" for k in fields))
+    same = not (removed or added or significant or grasp_changed or any(k != "name" for k in fields))
     return DescriptorDiff(
         a={"name": a.name, "id": a.id},
         b={"name": b.name, "id": b.id},

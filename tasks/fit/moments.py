@@ -34,6 +34,8 @@ class SpanResiduals:
     """(b,) approximate sum of squared distances to the best circle, m^2 (inf when degenerate)."""
     radius: FloatArray
     """(b,) algebraic circle radius, m (inf when degenerate)."""
+    scatter: FloatArray
+    """(b, 3, 3) scatter matrix about the centroid, m^2."""
 
 
 @dataclass(frozen=True)
@@ -146,7 +148,9 @@ def span_residuals(pm: PrefixMoments, start: IntArray, stop: IntArray) -> SpanRe
         circle = n * (evals[:, 0] + np.where(r2 > 0, alg / (4.0 * r2), np.inf))
     del m2c
     circle = np.where(np.isfinite(circle), circle, np.inf)
-    return SpanResiduals(n=n, count=count, still=still, line=line, circle=circle, radius=radius)
+    return SpanResiduals(
+        n=n, count=count, still=still, line=line, circle=circle, radius=radius, scatter=n[:, None, None] * c2
+    )
 
 
 def _centred_quartic(m1: FloatArray, m2: FloatArray, m3: FloatArray, m4: FloatArray, proj: FloatArray) -> FloatArray:

@@ -16,6 +16,45 @@ re-send slower sensors (a camera at 30 Hz) by interpolation or repetition, which
 closer than a camera frame."""
 
 
+MIN_COVARIANCE_ROWS = 50
+"""Second differences needed before their spread is resolved into axes: fewer, and a short track's own
+accelerations along its motion pass for noise along that axis (the estimate stays isotropic)."""
+
+
+def _lag(points: Points, t_s: FloatArray | None) -> int:
+    """Samples spanning ``NOISE_LAG_S`` (1 without times), at most what the track's length allows."""
+    lag = 1
+    if t_s is not None and len(t_s) > 1:
+        dt = float(np.median(np.diff(t_s)))
+        lag = max(1, round(NOISE_LAG_S / dt)) if dt > 0 else 1
+    return max(1, min(lag, (len(points) - 3) // 2))
+
+
+def noise_covariance(points: Points, t_s: FloatArray | None = None) -> FloatArray:
+    """(3, 3) covariance (m^2, world axes) of a track's white noise, anisotropic where it is (a camera's depth).
+
+    The second differences over ``NOISE_LAG_S`` (covariance 6 Sigma for white noise) are turned to the principal
+    axes of their central 90 % and scaled per axis by the median absolute deviation, which motion and outliers
+    do not move; isotropic below ``MIN_COVARIANCE_ROWS``. Zero for fewer than 5 samples. (scikit-learn's
+    MinCovDet estimates the same robustly but costs far more per marker: ``bench/noise_estimate.py``.)
+    """
+    if len(points) < 5:
+        return np.zeros((3, 3))
+    lag = _lag(points, t_s)
+    d2 = points[2 * lag :] - 2.0 * points[lag:-lag] + points[: -2 * lag]
+    if len(d2) < MIN_COVARIANCE_ROWS:
+        return np.eye(3) * noise_sigma(points, t_s) ** 2
+    d2 = d2 - np.median(d2, axis=0)
+    norms = np.linalg.norm(d2, axis=1)
+    core = d2[norms <= np.percentile(norms, 90.0)]
+    _, axes = np.linalg.eigh(core.T @ core if len(core) >= 3 else d2.T @ d2)
+    proj = d2 @ axes
+    mad = np.median(np.abs(proj - np.median(proj, axis=0)), axis=0)
+    var = (MAD_TO_SIGMA * mad) ** 2 / 6.0
+    out: FloatArray = (axes * var) @ axes.T
+    return out
+
+
 def noise_sigma(points: Points, t_s: FloatArray | None = None) -> float:
     """Per-axis white-noise standard deviation (metres) of an (n, 3) track from its second differences.
 
@@ -26,11 +65,7 @@ def noise_sigma(points: Points, t_s: FloatArray | None = None) -> float:
     """
     if len(points) < 5:
         return 0.0
-    lag = 1
-    if t_s is not None and len(t_s) > 1:
-        dt = float(np.median(np.diff(t_s)))
-        lag = max(1, round(NOISE_LAG_S / dt)) if dt > 0 else 1
-        lag = min(lag, (len(points) - 3) // 2)
+    lag = _lag(points, t_s)
     d2 = points[2 * lag :] - 2.0 * points[lag:-lag] + points[: -2 * lag]
     mad = np.median(np.abs(d2 - np.median(d2, axis=0)), axis=0)
     return float(np.sqrt(np.mean((MAD_TO_SIGMA * mad) ** 2)) / np.sqrt(6.0))

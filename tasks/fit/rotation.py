@@ -11,6 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import least_squares
 
 from tasks.arrays import FloatArray, Points, Vector3
 from tasks.fit.geometry import nearest_on_axis, net_change, perpendicular_basis, unit
@@ -130,7 +131,6 @@ def _refine(
 ) -> tuple[Vector3, Vector3, list[float], tuple[float, float], float]:
     """Geometric least squares of one axis (point, direction; ``n_dir`` 0 keeps ``d0``), per-marker radii;
     the direction and position std (rad, m; direction std nan when kept) and the robust cost."""
-    from scipy.optimize import least_squares  # noqa: PLC0415 - keep module import light
 
     e1, e2 = perpendicular_basis(d0)
     m = len(thin)

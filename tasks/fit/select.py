@@ -46,6 +46,7 @@ def model_costs(
     sigma_still: float | FloatArray,
     sigma_model: float | FloatArray,
     undefined: float,
+    still_noise: tuple[FloatArray, FloatArray, FloatArray] | None = None,
 ) -> FloatArray:
     """(b, 4) negative log-likelihood + penalty of still, translation, rotation, undefined (nats).
 
@@ -53,16 +54,24 @@ def model_costs(
     object at rest scatters by the sensor noise ``sigma_still``; a moving one also departs from the ideal line
     or circle (mechanism play, marker wobble), ``sigma_model`` >= ``sigma_still``. The Gaussian normaliser
     3 log(sigma_model / sigma_still) per sample keeps the two comparable (costs are relative to "still").
+    ``still_noise`` = (scatter (b, 3, 3) m^2, noise precision (b, 3, 3) 1/m^2, log-normaliser excess (b,) nats
+    per sample; ``tasks.segment.tracks.anisotropy``) scores "still" under the marker's anisotropic noise, so that
+    a camera's depth noise does not pass for motion along a line; ``sigma_still`` is then its rms per axis.
     """
     s_still = np.maximum(sigma_still, SIGMA_MIN_M)
     s_model = np.maximum(sigma_model, s_still)
     lognorm = 3.0 * np.log(s_model / s_still) * n
+    still = rss_still / (2.0 * s_still**2)
+    if still_noise is not None:
+        scatter, precision, excess = still_noise
+        still = 0.5 * np.einsum("bij,bji->b", precision, scatter)
+        lognorm = lognorm + excess * n
     logn = np.log(np.maximum(n, 2.0))
     circle = np.minimum(rss_circle, rss_line)
     moving = LATENT_NATS * n + lognorm
     return np.stack(
         [
-            rss_still / (2.0 * s_still**2) + 0.5 * PARAMS["still"] * logn,
+            still + 0.5 * PARAMS["still"] * logn,
             rss_line / (2.0 * s_model**2) + moving + 0.5 * PARAMS["translation"] * logn,
             circle / (2.0 * s_model**2) + moving + 0.5 * PARAMS["rotation"] * logn,
             undefined * n + lognorm + 0.5 * PARAMS["undefined"] * logn,

@@ -20,10 +20,10 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from tasks.arrays import FloatArray, Vector3
-from tasks.grasp import barrett
 from tasks.grasp.object_model import ObjectModel
 from tasks.grasp.pinch import PINCH_SPREADS_RAD, spread_rank
 from tasks.grasp.planner import ApproachSpace, GraspCandidate, PlannerParams, execute_states, pivot_distance
+from tasks.hand import barrett
 
 SQUARE_STEP_M = 0.005
 SQUARE_DISTANCES_M = tuple(round(0.06 + SQUARE_STEP_M * i, 3) for i in range(9))

@@ -4,8 +4,8 @@
 from __future__ import annotations
 
 from schemas.descriptor import Grasp
-from tasks.grasp import barrett
 from tasks.grasp.planner import GraspCandidate
+from tasks.hand import barrett
 
 HAND = "barrett"
 """The hand every planned grasp is for."""

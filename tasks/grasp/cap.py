@@ -24,10 +24,11 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial.transform import Rotation
+from sklearn.linear_model import RANSACRegressor
 
 from tasks.arrays import BoolArray, FloatArray, Points, Vector3
 from tasks.grasp.mount import in_plane
-from tasks.grasp.object_model import PrimitiveShape
+from tasks.grasp.primitive_shape import PrimitiveShape
 
 TOP_M = 0.002
 """Scan points within this distance of the top face's plane are on it."""
@@ -140,7 +141,6 @@ def _ransac_plane(points: Points, look: Vector3) -> tuple[Vector3, Vector3] | No
     """Centroid (3,) and unit normal (3,), its sign along ``look``, of the plane most of ``points`` (n, 3) lie on
     (depth along ``look`` a linear function of the two coordinates across it, within ``PLANE_TOLERANCE_M``), fitted
     again to its inliers; None when fewer than ``MIN_TOP_POINTS`` lie on it."""
-    from sklearn.linear_model import RANSACRegressor  # noqa: PLC0415 - only when a cap is looked for
 
     across = in_plane(look)
     ransac = RANSACRegressor(min_samples=3, residual_threshold=PLANE_TOLERANCE_M, max_trials=100, random_state=0)

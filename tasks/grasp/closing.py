@@ -15,7 +15,7 @@ import numpy.typing as npt
 import pybullet as pb
 
 from tasks.arrays import FloatArray, Points
-from tasks.grasp import barrett
+from tasks.hand import barrett
 
 CONTACT_M = 0.001
 """A link touches the object when its closest distance is below 1 mm."""

@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from sklearn.linear_model import RANSACRegressor
 
 from tasks.arrays import BoolArray, Points, Vector3
 
@@ -48,7 +49,6 @@ def find_mount(points: Points, palm_position: Vector3, approach: Vector3) -> Boo
     ``palm_position`` (3,) m and unit ``approach`` (3,): the demonstrated palm. The ``PLANES`` largest planes
     are tried (a slanted plane through a handle's bar and the edges of its plate can hold more points than the
     plate's face; a plate's back face as many as its front)."""
-    from sklearn.linear_model import RANSACRegressor  # noqa: PLC0415 - imported only when a grasp is planned
 
     axis = np.asarray(approach, dtype=np.float64) / float(np.linalg.norm(approach))
     depth = (points - np.asarray(palm_position, dtype=np.float64)) @ axis

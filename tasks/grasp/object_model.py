@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Literal
 
 import numpy as np
 import numpy.typing as npt
@@ -29,9 +28,12 @@ from scipy.spatial import ConvexHull, QhullError, cKDTree
 
 from tasks.arrays import BoolArray, Points, Vector3
 from tasks.errors import GraspError
+from tasks.grasp.cap import find_cap
+from tasks.grasp.mount import find_mount
+from tasks.grasp.part_cylinders import find_cylinder, prism_vertices
+from tasks.grasp.primitive_fit import TOLERANCE_M, fit_primitive, surface_distance
+from tasks.grasp.primitive_shape import MIN_POINTS, PrimitiveShape
 
-MIN_POINTS = 30
-"""Fewest object points a grasp is planned on."""
 INWARD_OFFSET_M = 0.005
 """Thickness given to each surface patch of the point cloud, metres."""
 COHERENT_COS = math.cos(math.radians(50.0))
@@ -51,17 +53,6 @@ MIN_PIECE_POINTS = 6
 
 GROUP_SPACINGS = 3.0
 """Points within this many median point spacings of each other belong to one group (``solid_pieces``)."""
-
-
-@dataclass(frozen=True)
-class PrimitiveShape:
-    """A known shape in the world: ``kind`` box (``size`` = half extents, m) or cylinder (radius, half height,
-    axis = local z); ``position`` (3,) m and ``quat_xyzw`` (4,) of its centre frame."""
-
-    kind: Literal["box", "cylinder"]
-    size: tuple[float, float, float]
-    position: tuple[float, float, float]
-    quat_xyzw: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 1.0)
 
 
 @dataclass(frozen=True, eq=False)
@@ -318,12 +309,8 @@ def build_object_model(
             msg = f"normals: expected shape {pts.shape}, got {nrm.shape}"
             raise GraspError(msg)
     if approach is not None and viewpoint is not None and primitive is None:
-        from tasks.grasp.mount import find_mount  # noqa: PLC0415 - scikit-learn, only when a mount is looked for
-
         mount = find_mount(pts, viewpoint, approach)
         if not mount.any():
-            from tasks.grasp.cap import find_cap  # noqa: PLC0415 - it imports this module's types only
-
             cap = find_cap(scan, viewpoint, approach)
             if cap is not None:
                 on_cap = cap.contains(pts)
@@ -334,8 +321,6 @@ def build_object_model(
     center = pts.mean(axis=0)
     radius = float(np.linalg.norm(pts - center, axis=1).max())
     if primitive is None and fit:
-        from tasks.grasp.primitive_fit import fit_primitive  # noqa: PLC0415 - it imports this module
-
         fitted = fit_primitive(pts, nrm)
         if fitted is not None:
             return ObjectModel(pts, nrm, center, radius, (), fitted.shape)
@@ -379,7 +364,6 @@ def _capped(
 ) -> ObjectModel:
     """A model of a cap on its mount: the cap one exact piece, the prism of its cylinder ``cap`` (the scan's
     points are voxel centroids, up to 2 mm inside its rim and top), then the mount's convex pieces."""
-    from tasks.grasp.part_cylinders import prism_vertices  # noqa: PLC0415 - it imports this module
 
     grip = points[~mount]
     center = grip.mean(axis=0)
@@ -395,8 +379,6 @@ def _part_pieces(
 ) -> tuple[PrimitiveShape | None, tuple[Points, ...]]:
     """The cylinder found in a part (``part_cylinders``), if any, and the part's pieces: its prism first, then the
     convex pieces of the points it leaves unexplained."""
-    from tasks.grasp.part_cylinders import find_cylinder, prism_vertices  # noqa: PLC0415 - it imports this module
-    from tasks.grasp.primitive_fit import TOLERANCE_M, surface_distance  # noqa: PLC0415 - likewise
 
     found = find_cylinder(points, normals, rng)
     if found is None:
@@ -432,7 +414,6 @@ def solid_pieces(points: Points, normals: Points, rng: np.random.Generator) -> t
 def _on_hull(points: Points) -> bool:
     """Whether 95 % of ``points`` (m) lie within ``primitive_fit.TOLERANCE_M`` (the tolerance a box or cylinder is
     fitted to) of the boundary of their convex hull: False for a flat or degenerate set."""
-    from tasks.grasp.primitive_fit import TOLERANCE_M  # noqa: PLC0415 - it imports this module
 
     try:
         hull = ConvexHull(points)

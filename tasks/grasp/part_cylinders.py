@@ -19,7 +19,6 @@ from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
 from tasks.arrays import BoolArray, Points
-from tasks.grasp.object_model import MIN_POINTS, PrimitiveShape
 from tasks.grasp.primitive_fit import (
     RMS_FRACTION,
     TOLERANCE_M,
@@ -28,6 +27,7 @@ from tasks.grasp.primitive_fit import (
     supported,
     surface_distance,
 )
+from tasks.grasp.primitive_shape import MIN_POINTS, PrimitiveShape
 
 HYPOTHESES = 256
 """RANSAC hypotheses drawn per cylinder."""

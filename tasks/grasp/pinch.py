@@ -20,9 +20,9 @@ import math
 import numpy as np
 
 from tasks.arrays import FloatArray, Vector3
-from tasks.grasp import barrett
 from tasks.grasp.object_model import ObjectModel
 from tasks.grasp.planner import ApproachSpace, GraspCandidate, PlannerParams, execute_states, pivot_distance
+from tasks.hand import barrett
 
 PINCH_DISTANCES_M = (0.06, 0.07, 0.08, 0.09, 0.10)
 """Palm distances (m) from where the demonstrated approach meets the part: the fingertips of the open hand close

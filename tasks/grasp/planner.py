@@ -26,11 +26,12 @@ import pybullet as pb
 from scipy.spatial.transform import Rotation
 
 from tasks.arrays import FloatArray, Vector3
-from tasks.grasp import barrett, closing, worker_pool
+from tasks.grasp import closing, worker_pool
 from tasks.grasp.anneal import ILLEGAL_ENERGY, AnnealTrace, Schedule, anneal, annealing_draws
 from tasks.grasp.object_model import ObjectModel, load_object
 from tasks.grasp.quality import DEFAULT_MU, GraspQuality, grasp_quality
 from tasks.grasp.worker_pool import Beside
+from tasks.hand import barrett
 
 NORMAL_WEIGHT_MM = 50.0
 """Contact energy: weight of the misalignment term 1 - n·p, in mm (GraspIt!'s contactEnergy)."""

@@ -31,7 +31,7 @@ from scipy.spatial.transform import Rotation
 
 from tasks.arrays import FloatArray, Points, Vector3
 from tasks.errors import GraspError
-from tasks.grasp.object_model import MIN_POINTS, PrimitiveShape
+from tasks.grasp.primitive_shape import MIN_POINTS, PrimitiveShape
 
 Kind = Literal["box", "cylinder"]
 """The primitives fitted."""

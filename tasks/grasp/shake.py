@@ -29,8 +29,10 @@ from scipy.spatial.transform import Rotation
 
 from schemas.descriptor import Grasp
 from tasks.arrays import FloatArray, Points, Vector3
-from tasks.grasp import barrett, closing
-from tasks.grasp.object_model import MIN_POINTS, ObjectModel, convex_parts, load_object
+from tasks.grasp import closing
+from tasks.grasp.object_model import ObjectModel, convex_parts, load_object
+from tasks.grasp.primitive_shape import MIN_POINTS
+from tasks.hand import barrett
 
 TIME_STEP_S = 1.0 / 240.0
 SHAKE_DIRECTIONS: FloatArray = np.array(

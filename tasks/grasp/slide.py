@@ -17,9 +17,9 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from tasks.arrays import FloatArray, Vector3
-from tasks.grasp import barrett
 from tasks.grasp.object_model import ObjectModel
 from tasks.grasp.planner import ApproachSpace, GraspCandidate, PlannerParams, execute_states, pivot_distance
+from tasks.hand import barrett
 
 SLIDES_M = (0.025, 0.05)
 """Distances (m) the palm is slid along the bar, either way, nearest first."""

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import atexit
 import concurrent.futures
+import importlib
 import multiprocessing
 import os
 import threading
@@ -27,6 +28,7 @@ from concurrent.futures.process import BrokenProcessPool
 from typing import Generic, ParamSpec, TypeVar
 
 from tasks.errors import GraspError
+from tasks.quiet_import import quiet_import
 
 PROCESSES_ENV = "PBD_GRASP_PROCESSES"
 """Environment variable: how many processes a plan's pybullet work may use (``1``: the planner's alone)."""
@@ -61,14 +63,16 @@ def workers() -> int:
     return 0 if wanted <= 1 else min(wanted, MAX_WORKERS)
 
 
-def _load() -> None:
-    """Import what a worker runs, once, when it starts (pybullet without its build-time banner on stderr, as the
-    CLI imports it)."""
-    from tasks.cli import quiet_pybullet_import  # noqa: PLC0415 -- in the worker only
+WARM_MODULES = ("scipy.optimize", "scipy.sparse.csgraph", "scipy.spatial", "scipy.cluster.vq")
+"""Third-party modules a worker imports when it starts (with pybullet): a plan's first call need not wait for them."""
 
-    quiet_pybullet_import()
-    import tasks.grasp.planner  # noqa: PLC0415 -- imported for its cost, in the worker
-    import tasks.grasp.shake  # noqa: F401, PLC0415
+
+def _load() -> None:
+    """Import what a worker runs, once, when it starts: pybullet without its build-time banner on stderr (as the CLI
+    imports it) and the scientific modules the planner and the hold check use."""
+    quiet_import("pybullet")
+    for name in WARM_MODULES:
+        importlib.import_module(name)
 
 
 def _executor() -> concurrent.futures.ProcessPoolExecutor | None:

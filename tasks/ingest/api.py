@@ -9,13 +9,17 @@ rest; ``extract``), and writes ``markers.parquet``, ``poses.parquet``, ``object_
 
 from __future__ import annotations
 
+import errno
 import hashlib
 import json
+import stat
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
 
 from schemas.tables import (
     INGEST_VERSION,
@@ -28,10 +32,12 @@ from schemas.tables import (
     RECORDING_FILE,
     SCHEMA_VERSION,
 )
-from tasks.errors import RecordingError
+from tasks.errors import NAME_CHARS, RecordingError, TopicMapError, one_line
 from tasks.ingest import roles as rl
-from tasks.ingest.containers import KNOWN_ENCODINGS, RawRecording, read_recording
-from tasks.ingest.extract import Extracted, MarkerChunk, PoseChunk, child_frames, extract_topic
+from tasks.ingest.containers import KNOWN_ENCODINGS, read_recording
+from tasks.ingest.extract import Extracted, MarkerChunk, PoseChunk, child_frames, dense_cloud, extract_topic
+from tasks.ingest.object_model import load_object_model
+from tasks.ingest.raw import RawRecording
 from tasks.store import Store
 
 
@@ -46,21 +52,59 @@ class IngestResult:
     warnings: tuple[str, ...]
 
 
+def _check_source(source: Path) -> None:
+    """A recording must be a regular file or a folder: anything else is named for what it is."""
+    try:
+        st = source.stat()
+    except FileNotFoundError:
+        what = "a dangling symbolic link" if source.is_symlink() else "no such file or folder"
+        raise RecordingError(source, what) from None
+    except OSError as err:
+        if err.errno == errno.ELOOP:
+            raise RecordingError(source, "a symbolic link loop, not a recording") from err
+        msg = f"cannot read it ({err.strerror})"
+        raise RecordingError(source, msg) from err
+    kinds = {stat.S_ISFIFO: "a FIFO (named pipe)", stat.S_ISSOCK: "a socket", stat.S_ISCHR: "a character device",
+             stat.S_ISBLK: "a block device"}  # fmt: skip
+    for test, what in kinds.items():
+        if test(st.st_mode):
+            msg = f"{what}, not a recording file or folder"
+            raise RecordingError(source, msg)
+
+
 def recording_id_of(source: Path) -> str:
     """First 16 hex digits of the SHA-256 of the recording's bytes (a folder: its files in name order)."""
     source = Path(source)
+    _check_source(source)
     h = hashlib.sha256()
     if source.is_dir():
         files = sorted((p for p in source.rglob("*") if p.is_file()), key=lambda p: p.relative_to(source).as_posix())
-    elif source.is_file():
-        files = [source]
     else:
-        raise RecordingError(source, "no such file or folder")
+        files = [source]
+    buf = bytearray(1 << 20)
+    view = memoryview(buf)
     for f in files:
-        with f.open("rb") as fh:
-            while block := fh.read(1 << 20):
-                h.update(block)
+        try:
+            with f.open("rb", buffering=0) as fh:
+                while n := fh.readinto(buf):
+                    h.update(view[:n])
+        except OSError as err:
+            msg = f"cannot read it ({err.strerror})"
+            raise RecordingError(f, msg) from err
     return h.hexdigest()[:16]
+
+
+MAP_KEY_HEX = 8
+"""Hex digits of the canonical topic map's SHA-256 in a mapped recording's store key: one user's maps of one
+recording never collide at 32 bits."""
+
+
+def recording_key(content_id: str, tmap: rl.TopicMap | None) -> str:
+    """The store key of a recording read with ``tmap``: its content id alone without a map, else
+    ``<content id>-<first 8 hex of the SHA-256 of the canonical map>`` (``../shared/RECORDING.md``)."""
+    if tmap is None:
+        return content_id
+    return f"{content_id}-{hashlib.sha256(tmap.canonical().encode()).hexdigest()[:MAP_KEY_HEX]}"
 
 
 def _special(raw: RawRecording) -> tuple[dict[str, str], list[str]]:
@@ -82,7 +126,7 @@ def _special(raw: RawRecording) -> tuple[dict[str, str], list[str]]:
     return skipped, warnings
 
 
-def assign_roles(raw: RawRecording, topics_map: Path | None) -> tuple[dict[str, str], list[str]]:
+def assign_roles(raw: RawRecording, tmap: rl.TopicMap | None) -> tuple[dict[str, str], list[str]]:
     """The role of every topic (detection, then the topic map); returns roles and warnings."""
     skipped, warnings = _special(raw)
     path = str(raw.path)
@@ -95,8 +139,7 @@ def assign_roles(raw: RawRecording, topics_map: Path | None) -> tuple[dict[str, 
         if t.count and t.msgtype in (rl.TRANSFORM, rl.TF, rl.TF_LEGACY) and "wrist" not in name.lower():
             frames = child_frames(t, path)
         detected[name] = rl.detect_role(name, t.msgtype, frames)
-    if topics_map is not None:
-        tmap = rl.parse_topic_map(Path(topics_map))
+    if tmap is not None:
         types = {n: t.msgtype for n, t in raw.topics.items()}
         roles = rl.apply_topic_map(tmap, detected, types)
         for name in skipped:
@@ -105,12 +148,24 @@ def assign_roles(raw: RawRecording, topics_map: Path | None) -> tuple[dict[str, 
                 raise RecordingError(path, msg, name)
     else:
         roles = detected
+    for name, role in sorted(roles.items()):
+        t = raw.topics[name]
+        if t.msgtype != rl.CLOUD or role != rl.MARKERS or not t.count:
+            continue
+        why = dense_cloud(t, path)
+        if why is None:
+            continue
+        if tmap is not None and tmap.role_of(name) == rl.MARKERS:
+            msg = f"topic {one_line(name, NAME_CHARS)} is {why}, not a marker set"
+            raise TopicMapError(tmap.source, msg)
+        roles[name] = rl.IGNORED
+        warnings.append(
+            f"{path} topic {one_line(name, NAME_CHARS)}: {why}: ignored (a topic map can make it object_model)"
+        )
     return roles, warnings
 
 
 def _markers_table(chunks: list[MarkerChunk]) -> Any:
-    import pyarrow as pa  # noqa: PLC0415
-
     merged: dict[str, list[MarkerChunk]] = {}
     for c in chunks:
         merged.setdefault(c.name, []).append(c)
@@ -148,8 +203,6 @@ def _markers_table(chunks: list[MarkerChunk]) -> Any:
 
 
 def _poses_table(chunks: list[PoseChunk]) -> Any:
-    import pyarrow as pa  # noqa: PLC0415
-
     chunks = sorted(chunks, key=lambda c: c.frame)
     frames, roles, stamps, vals = [], [], [], []
     for c in chunks:
@@ -166,10 +219,13 @@ def _poses_table(chunks: list[PoseChunk]) -> Any:
 
 
 def _span(raw: RawRecording, ex: Extracted) -> tuple[int | None, int | None, int | None, int | None]:
-    """(start, end) of the samples (header stamps) and of the log times; None when empty."""
+    """(start, end) of the samples (header stamps) and of the log times of every message; None when empty."""
     logs = [b.log_ns for t in raw.topics.values() for b in t.batches if len(b)]
     log_lo = min(int(x.min()) for x in logs) if logs else None
     log_hi = max(int(x.max()) for x in logs) if logs else None
+    if raw.log_range is not None:
+        log_lo = raw.log_range[0] if log_lo is None else min(log_lo, raw.log_range[0])
+        log_hi = raw.log_range[1] if log_hi is None else max(log_hi, raw.log_range[1])
     st = [c.stamps_ns for c in ex.markers if len(c.stamps_ns)] + [c.stamps_ns for c in ex.poses if len(c.stamps_ns)]
     lo = min(int(x.min()) for x in st) if st else log_lo
     hi = max(int(x.max()) for x in st) if st else log_hi
@@ -186,15 +242,19 @@ def ingest_recording(
 ) -> IngestResult:
     """Ingest the recording at ``source`` into ``store``; a no-op (``created=False``) if it is already there.
 
+    The store key is the content id with the topic map's (``recording_key``): the same recording read with
+    another map (or none) is another entry, and an entry is never rewritten. Only the topics some role can use
+    are decoded; the others are counted (and skipped unread where the container allows).
     Raises ``RecordingError`` (bad or unreadable recording, naming the file and topic), ``TopicMapError``
     (bad ``topics`` map). With ``recover``, a truncated or damaged MCAP, ROS 1 bag or rosbag2 keeps its intact
     messages before the damage and the loss is reported in ``lost_messages`` (exact where rosbag2 metadata counts
-    the messages, an estimate otherwise) and ``warnings``.
+    the messages, an estimate or a lower bound otherwise, as the warning says) and ``warnings``.
     """
-    import pyarrow.parquet as pq  # noqa: PLC0415
 
     source = Path(source)
-    rec_id = recording_id_of(source)
+    tmap = rl.parse_topic_map(Path(topics)) if topics is not None else None
+    content_id = recording_id_of(source)
+    rec_id = recording_key(content_id, tmap)
     final = store.recording_dir(rec_id)
     if store.has_recording(rec_id):
         notes: tuple[str, ...] = ()
@@ -204,12 +264,12 @@ def ingest_recording(
             if stored.get("sha256") != sha:
                 notes = (f"{source}: already ingested as {rec_id} with another object model; kept the stored one",)
         return IngestResult(rec_id, final, False, 0, notes)
-    raw = read_recording(source, recover=recover)
+    raw = read_recording(source, recover=recover, want=rl.wanted(tmap))
     if raw.message_count == 0:
         n = len(raw.topics)
         what = f"empty: no messages ({n} topic{'s' if n != 1 else ''} without messages)" if n else "empty: no messages"
         raise RecordingError(source, what)
-    roles, warnings = assign_roles(raw, topics)
+    roles, warnings = assign_roles(raw, tmap)
     warnings = raw.warnings + warnings
     ex = Extracted()
     for name in sorted(raw.topics):
@@ -220,8 +280,6 @@ def ingest_recording(
     warnings += ex.warnings
     model_info: dict[str, Any] | None = None
     if object_model is not None:
-        from tasks.ingest.object_model import load_object_model  # noqa: PLC0415
-
         pts, sha = load_object_model(Path(object_model))
         if ex.object_model is not None:
             warnings.append(f"{source}: --object-model {object_model} replaces the recording's object cloud")
@@ -230,6 +288,8 @@ def ingest_recording(
     lo, hi, log_lo, log_hi = _span(raw, ex)
     info: dict[str, Any] = {
         "id": rec_id,
+        "content_id": content_id,
+        "topic_map": None if tmap is None else {"path": str(topics), "canonical": tmap.canonical()},
         "source": str(source),
         "container": raw.container,
         "topics": [
@@ -252,8 +312,6 @@ def ingest_recording(
         pq.write_table(_markers_table(ex.markers), stage / MARKERS_FILE, use_dictionary=["marker"])
         pq.write_table(_poses_table(ex.poses), stage / POSES_FILE, use_dictionary=["frame", "role"])
         if ex.object_model is not None:
-            import pyarrow as pa  # noqa: PLC0415
-
             m = ex.object_model
             table = pa.Table.from_arrays(
                 [pa.array(np.ascontiguousarray(m[:, i])) for i in range(3)], schema=OBJECT_MODEL_SCHEMA

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from tasks.ingest.mcap_stream import Batch, gather_bytes
+from tasks.ingest.batch import Batch, gather_bytes
 
 IntArray = npt.NDArray[np.int64]
 F64Array = npt.NDArray[np.float64]

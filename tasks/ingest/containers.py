@@ -3,77 +3,35 @@
 A ``RawRecording`` lists every topic with its type, message encoding, the message definition the recording
 carries, and its raw payloads as ``Batch``es (nothing is decoded here). Containers:
 
-- standalone MCAP: our streaming reader (``mcap_stream``), no seeking;
-- ROS 1 bag (plain, bz2, lz4): ``rosbags.rosbag1.Reader`` (raw bytes, definitions from connection headers),
-  after checking the bag is not cut short (its index sits at the end);
-- rosbag2 folder: ``metadata.yaml`` plus sqlite3 storage (read with ``sqlite3`` directly, topics matched by
-  name, not by QoS) or MCAP storage (our reader); file or message compression (zstd) is undone; the counts
-  read are compared with the metadata's; a lone ``.db3`` file reads as a one-file rosbag2 without metadata.
+- standalone MCAP: our streaming reader (``mcap_stream``), memory bounded by one chunk;
+- ROS 1 bag (plain, bz2, lz4): our streaming reader (``bag_stream``; definitions from connection headers);
+- rosbag2 folder: ``metadata.yaml`` (storage files confined to the folder) plus sqlite3 storage
+  (``rosbag2_sqlite``: topics matched by name, not by QoS, rows queried by topic) or MCAP storage (our
+  reader); file or message compression (zstd) is undone; the counts read are compared with the metadata's; a
+  lone ``.db3`` file reads as a one-file rosbag2 without metadata.
+
+Only the payloads of the topics ``want`` asks for are kept; every topic is counted.
 """
 
 from __future__ import annotations
 
 import contextlib
-import sqlite3
 import tempfile
-from collections.abc import Iterator
-from dataclasses import dataclass, field
-from pathlib import Path
+from pathlib import Path, PurePosixPath, PureWindowsPath
 from typing import Any
 
-from tasks.errors import RecordingError
+import yaml
+import zstandard
+
+from tasks.errors import RecordingError, bounded
 from tasks.ingest.bag_stream import read_bag
-from tasks.ingest.mcap_stream import Batch, McapContent, read_mcap
+from tasks.ingest.batch import Batch
+from tasks.ingest.mcap_stream import McapContent, read_mcap
+from tasks.ingest.raw import RawRecording, RawTopic
+from tasks.ingest.rosbag2_sqlite import read_sqlite_files
+from tasks.ingest.selection import Want, keep_all, normalize_type
 
 KNOWN_ENCODINGS = ("cdr", "ros1", "json")
-
-
-def normalize_type(name: str) -> str:
-    """``pkg/Type`` or ``pkg/msg/Type`` -> ``pkg/msg/Type`` (ROS 2 style); other names unchanged."""
-    parts = [p for p in name.replace("::", "/").split("/") if p]
-    if len(parts) == 2:
-        return f"{parts[0]}/msg/{parts[1]}"
-    return "/".join(parts) if parts else name
-
-
-@dataclass
-class RawTopic:
-    """One topic's raw messages.
-
-    ``encoding``: message encoding (``cdr``, ``ros1``, ``json``, or what the file says);
-    ``schema_encoding``/``schema``: the message definition carried by the recording (``ros2msg``,
-    ``ros2idl``, ``ros1msg``, ``jsonschema``; empty when the recording has none).
-    """
-
-    name: str
-    msgtype: str
-    encoding: str
-    schema_encoding: str
-    schema: str
-    batches: list[Batch] = field(default_factory=list)
-    expected: int | None = None
-    """Message count promised by the container's metadata (rosbag2 ``metadata.yaml``), if any."""
-
-    @property
-    def count(self) -> int:
-        """Messages read."""
-        return sum(len(b) for b in self.batches)
-
-
-@dataclass
-class RawRecording:
-    """A recording's topics and raw messages, plus what was lost to damage (``--recover``)."""
-
-    path: Path
-    container: str
-    topics: dict[str, RawTopic]
-    lost_messages: int = 0
-    warnings: list[str] = field(default_factory=list)
-
-    @property
-    def message_count(self) -> int:
-        """Messages read over all topics."""
-        return sum(t.count for t in self.topics.values())
 
 
 def container_of(path: Path) -> str:
@@ -99,16 +57,17 @@ def container_of(path: Path) -> str:
     raise RecordingError(path, what)
 
 
-def read_recording(path: Path, *, recover: bool = False) -> RawRecording:
-    """All topics and raw messages of the recording at ``path``; raises ``RecordingError`` on bad input."""
+def read_recording(path: Path, *, recover: bool = False, want: Want = keep_all) -> RawRecording:
+    """Every topic of the recording at ``path`` with its message count, and the raw messages of the topics
+    ``want`` asks for; raises ``RecordingError`` on bad input."""
     kind = container_of(path)
     if kind == "mcap":
-        return _read_mcap_file(path, recover)
+        return _read_mcap_file(path, recover, want)
     if kind == "bag":
-        return _read_bag(path, recover)
+        return _read_bag(path, recover, want)
     if kind == "db3":
-        return _read_rosbag2_files(path, [path], recover)
-    return _read_rosbag2(path, recover)
+        return read_sqlite_files(path, [path], recover, want)
+    return _read_rosbag2(path, recover, want)
 
 
 # -- MCAP -------------------------------------------------------------------------------------------
@@ -131,44 +90,53 @@ def _topics_from_mcap(content: McapContent, path: Path, topics: dict[str, RawTop
             msg = f"two channels with types {topic.msgtype} and {msgtype}"
             raise RecordingError(path, msg, ch.topic)
         topic.batches.extend(content.batches.get(cid, []))
-    orphans = set(content.batches) - set(content.channels)
+        topic.seen += content.counts.get(cid, 0)
+    orphans = set(content.counts) - set(content.channels)
     if orphans:
         msg = f"messages on channel id {min(orphans)} which the file never defines"
         raise RecordingError(path, msg)
 
 
-def _read_mcap_file(path: Path, recover: bool) -> RawRecording:
-    data = path.read_bytes()
-    content = read_mcap(data, str(path), recover=recover)
+def _read_mcap_file(path: Path, recover: bool, want: Want) -> RawRecording:
+    content = read_mcap(path, recover=recover, want=want)
     topics: dict[str, RawTopic] = {}
     _topics_from_mcap(content, path, topics, "")
-    rec = RawRecording(path, "mcap", topics)
+    rec = RawRecording(path, "mcap", topics, log_range=content.log_range)
     if content.damage is not None:
         rec.lost_messages = content.lost_messages
         past = "the damage is past the data section"
+        basis = (
+            "the cut chunk's size in its header over the mean message size"
+            if content.cut_chunk is not None
+            else "the record the damage cut"
+        )
         rec.warnings.append(
-            _recovery_warning(rec, content.damage, content.damage_offset, past_data=content.past_data, past=past)
+            _recovery_warning(rec, content.damage, past_data=content.past_data, past=past, estimated=False, basis=basis)
         )
     return rec
 
 
 def _recovery_warning(
-    rec: RawRecording, damage: str, offset: int | None, *, past_data: bool, past: str, detail: str = ""
+    rec: RawRecording, damage: str, *, past_data: bool, past: str, estimated: bool, basis: str
 ) -> str:
-    """The ``--recover`` warning: what was wrong, what was kept and (a lower bound of) what was lost; ``past``
-    says where damage that cost nothing lies, ``detail`` adds to the loss."""
+    """The ``--recover`` warning: what was wrong and where, what was kept, and what was lost: ``estimated``
+    (from ``basis``, what the file says) or a lower bound; ``past`` says where damage that cost nothing lies."""
     kept = rec.message_count
     if past_data:
         return f"{rec.path}: {damage}; recovered all {kept} messages ({past})"
+    if estimated:
+        return (
+            f"{rec.path}: {damage}; recovered {kept} messages, lost about {rec.lost_messages} (estimated from {basis})"
+        )
     return (
-        f"{rec.path}: {damage}; recovered {kept} messages before byte {offset}, lost at least {rec.lost_messages} "
-        f"(estimated; whatever was recorded after the damage cannot be counted{detail})"
+        f"{rec.path}: {damage}; recovered {kept} messages, lost at least {rec.lost_messages} "
+        f"(a lower bound: {basis}; what was recorded after the damage cannot be counted)"
     )
 
 
 # -- ROS 1 bag --------------------------------------------------------------------------------------
-def _read_bag(path: Path, recover: bool) -> RawRecording:
-    content = read_bag(path.read_bytes(), str(path), recover=recover)
+def _read_bag(path: Path, recover: bool, want: Want) -> RawRecording:
+    content = read_bag(path, recover=recover, want=want)
     topics: dict[str, RawTopic] = {}
     for cid, conn in sorted(content.connections.items()):
         topic = topics.get(conn.topic)
@@ -181,18 +149,24 @@ def _read_bag(path: Path, recover: bool) -> RawRecording:
         batch = content.batch(cid)
         if batch is not None:
             topic.batches.append(batch)
-    rec = RawRecording(path, "bag", topics)
+        topic.seen += content.counts.get(cid, 0)
+    log_range = None if content.log_lo is None or content.log_hi is None else (content.log_lo, content.log_hi)
+    rec = RawRecording(path, "bag", topics, log_range=log_range)
     if content.damage is not None:
         rec.lost_messages = content.lost_messages
         past = "the damage is past the last chunk, in the index"
-        announced = (
-            f"; the bag header announces {content.chunk_count} chunks, {content.chunks_read} were read whole"
-            if content.chunk_count
-            else ""
-        )
+        if content.lost_estimated:
+            basis = f"the bytes up to the index at byte {content.index_pos} the bag header gives"
+        else:
+            basis = "the cut chunk's size in its header over the mean message size, one per chunk never reached"
         rec.warnings.append(
             _recovery_warning(
-                rec, content.damage, content.damage_offset, past_data=content.past_data, past=past, detail=announced
+                rec,
+                content.damage,
+                past_data=content.past_data,
+                past=past,
+                estimated=content.lost_estimated,
+                basis=basis,
             )
         )
     return rec
@@ -200,8 +174,6 @@ def _read_bag(path: Path, recover: bool) -> RawRecording:
 
 # -- rosbag2 ----------------------------------------------------------------------------------------
 def _metadata(path: Path) -> dict[str, Any]:
-    import yaml  # noqa: PLC0415
-
     meta_path = path / "metadata.yaml"
     if not meta_path.is_file():
         files = sorted(p.name for p in path.iterdir()) if path.is_dir() else []
@@ -219,19 +191,40 @@ def _metadata(path: Path) -> dict[str, Any]:
     return info
 
 
-def _read_rosbag2(path: Path, recover: bool) -> RawRecording:
-    info = _metadata(path)
-    storage = str(info.get("storage_identifier", ""))
-    rel = info.get("relative_file_paths") or [f.get("path") for f in info.get("files") or []]
-    files = [path / str(r) for r in rel if r]
-    if not files:
-        raise RecordingError(path, "empty: metadata.yaml lists no storage files")
-    for f in files:
-        if not f.is_file() and (path / f.name).is_file():
-            files[files.index(f)] = path / f.name  # old metadata lists paths with the folder name
-        elif not f.is_file():
-            msg = f"storage file {f.name} listed in metadata.yaml is missing"
+def _storage_files(path: Path, rel: list[Any]) -> list[Path]:
+    """The storage files metadata.yaml lists, each confined to the bag folder: an absolute path, a ``..`` or a
+    symbolic link leading out of the folder is refused (``RecordingError``)."""
+    root = path.resolve()
+    meta_path = path / "metadata.yaml"
+    files: list[Path] = []
+    for r in rel:
+        text = str(r)
+        shown = text if len(text) <= 80 else text[:77] + "..."
+        pure = PurePosixPath(text)
+        if pure.is_absolute() or PureWindowsPath(text).is_absolute() or ".." in pure.parts or "\x00" in text:
+            msg = f"storage path {shown!r} leaves the bag folder (absolute and '..' paths are refused)"
+            raise RecordingError(meta_path, msg)
+        f = path / pure
+        try:
+            if not f.is_file() and (path / pure.name).is_file():
+                f = path / pure.name  # old metadata lists paths with the folder name
+            missing = not f.is_file()
+            outside = not missing and not f.resolve().is_relative_to(root)
+        except (OSError, RuntimeError) as err:  # a name too long, a link loop
+            msg = f"storage file {shown} listed in metadata.yaml cannot be opened ({err})"
+            raise RecordingError(meta_path, msg) from err
+        if missing:
+            msg = f"storage file {shown} listed in metadata.yaml is missing"
             raise RecordingError(path, msg)
+        if outside:
+            msg = f"storage file {shown} is a link leading out of the bag folder (refused)"
+            raise RecordingError(meta_path, msg)
+        files.append(f)
+    return files
+
+
+def _expected_counts(info: dict[str, Any]) -> dict[str, tuple[str, str, int]]:
+    """(type, serialization format, message count) per topic, from metadata.yaml."""
     expected: dict[str, tuple[str, str, int]] = {}
     for entry in info.get("topics_with_message_count") or []:
         meta = entry.get("topic_metadata") or entry.get("topic_and_type") or {}
@@ -241,10 +234,26 @@ def _read_rosbag2(path: Path, recover: bool) -> RawRecording:
             str(meta.get("serialization_format", "cdr")),
             int(entry.get("message_count", 0)),
         )
-    mode = str(info.get("compression_mode", "") or "").upper()
-    fmt = str(info.get("compression_format", "") or "")
+    return expected
+
+
+def _read_rosbag2(path: Path, recover: bool, want: Want) -> RawRecording:
+    info = _metadata(path)
+    try:
+        storage = str(info.get("storage_identifier", ""))
+        rel = info.get("relative_file_paths") or [f.get("path") for f in info.get("files") or []]
+        rel = [r for r in rel if r] if isinstance(rel, list) else [rel]
+        expected = _expected_counts(info)
+        mode = str(info.get("compression_mode", "") or "").upper()
+        fmt = str(info.get("compression_format", "") or "")
+    except (AttributeError, TypeError, ValueError, OverflowError) as err:
+        msg = f"malformed metadata.yaml ({type(err).__name__}: {str(err)[:80]})"
+        raise RecordingError(path / "metadata.yaml", msg) from err
+    files = _storage_files(path, rel)
+    if not files:
+        raise RecordingError(path, "empty: metadata.yaml lists no storage files")
     if mode and fmt and fmt != "zstd":
-        msg = f"unknown compression format {fmt!r}"
+        msg = f"unknown compression format {fmt[:40]!r}"
         raise RecordingError(path, msg)
     with contextlib.ExitStack() as stack:
         plain: list[Path] = []
@@ -252,20 +261,21 @@ def _read_rosbag2(path: Path, recover: bool) -> RawRecording:
             if mode == "FILE" or f.suffix == ".zstd":
                 tmp = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="pbd-ingest-")))
                 out = tmp / f.name.removesuffix(".zstd")
-                out.write_bytes(_unzstd(f.read_bytes(), f))
+                _unzstd_file(f, out)
                 plain.append(out)
             else:
                 plain.append(f)
         if storage == "mcap" or all(p.suffix == ".mcap" for p in plain):
-            rec = _read_rosbag2_mcap(path, plain, recover)
+            rec = _read_rosbag2_mcap(path, plain, recover, want)
         elif storage in ("sqlite3", "") or all(p.suffix == ".db3" for p in plain):
-            rec = _read_rosbag2_files(path, plain, recover)
+            rec = read_sqlite_files(path, plain, recover, want)
         else:
-            msg = f"unknown rosbag2 storage {storage!r}"
+            msg = f"unknown rosbag2 storage {storage[:40]!r}"
             raise RecordingError(path, msg)
     rec.container = "rosbag2"
     if expected:  # metadata.yaml counts every topic: the loss is exact, not the storage reader's estimate
         rec.lost_messages = 0
+    short: list[str] = []
     for name, (msgtype, fmt_, count) in expected.items():
         topic = rec.topics.get(name)
         if topic is None:
@@ -279,13 +289,23 @@ def _read_rosbag2(path: Path, recover: bool) -> RawRecording:
             if not recover:
                 raise RecordingError(path, msg, name)
             rec.lost_messages += count - topic.count
-            rec.warnings.append(f"{path}: topic {name}: {msg}; recovered those, lost {count - topic.count}")
+            short.append(f"{name} lost {count - topic.count} of {count}")
+    if short:
+        rec.warnings.append(f"{path}: {bounded(short)} (exact: metadata.yaml counts every topic)")
     return rec
 
 
-def _unzstd(data: bytes, where: Path) -> bytes:
-    import zstandard  # noqa: PLC0415
+def _unzstd_file(src: Path, out: Path) -> None:
+    """Decompress a zstd storage file to ``out`` in a stream (memory holds one block, not the file)."""
+    try:
+        with src.open("rb") as fin, out.open("wb") as fout:
+            zstandard.ZstdDecompressor().copy_stream(fin, fout)
+    except zstandard.ZstdError as err:
+        msg = f"zstd data does not decompress ({err})"
+        raise RecordingError(src, msg) from err
 
+
+def _unzstd(data: bytes, where: Path) -> bytes:
     try:
         return bytes(zstandard.ZstdDecompressor().decompressobj().decompress(data))
     except zstandard.ZstdError as err:
@@ -298,85 +318,18 @@ def _unzstd_batch(batch: Batch, where: Path) -> Batch:
     return Batch.from_payloads(payloads, batch.log_ns.tolist())
 
 
-def _read_rosbag2_mcap(path: Path, files: list[Path], recover: bool) -> RawRecording:
+def _read_rosbag2_mcap(path: Path, files: list[Path], recover: bool, want: Want) -> RawRecording:
     topics: dict[str, RawTopic] = {}
     rec = RawRecording(path, "rosbag2", topics)
     for f in files:
-        data = f.read_bytes()
-        content = read_mcap(data, str(f), recover=recover)
+        content = read_mcap(f, recover=recover, want=want)
         _topics_from_mcap(content, f, topics, "cdr")
+        if content.log_range is not None:
+            lo, hi = content.log_range
+            rec.log_range = (
+                (lo, hi) if rec.log_range is None else (min(rec.log_range[0], lo), max(rec.log_range[1], hi))
+            )
         if content.damage is not None:
             rec.warnings.append(f"{f}: {content.damage}")
             rec.lost_messages += content.lost_messages  # replaced by the exact loss where metadata.yaml counts
     return rec
-
-
-@contextlib.contextmanager
-def _sqlite_open(db: Path) -> Iterator[sqlite3.Connection]:
-    uri = f"file:{db.resolve()}?mode=ro&immutable=1"
-    try:
-        con = sqlite3.connect(uri, uri=True)
-    except sqlite3.Error as err:
-        msg = f"cannot open sqlite3 storage ({err})"
-        raise RecordingError(db, msg) from err
-    try:
-        yield con
-    finally:
-        con.close()
-
-
-def _read_rosbag2_files(path: Path, files: list[Path], recover: bool) -> RawRecording:
-    """The topics and messages of sqlite3 storage files; with ``recover``, the messages a damaged file yields
-    before the damage are kept (with a warning) instead of an error."""
-    topics: dict[str, RawTopic] = {}
-    payloads: dict[str, list[bytes]] = {}
-    stamps: dict[str, list[int]] = {}
-    warnings: list[str] = []
-    for db in files:
-        if db.suffix != ".db3":
-            msg = f"unexpected storage file {db.name} for sqlite3 storage"
-            raise RecordingError(path, msg)
-        with _sqlite_open(db) as con:
-            try:
-                tables = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type='table'")}
-                if "topics" not in tables or "messages" not in tables:
-                    raise RecordingError(db, "not a recording (sqlite3 file without rosbag2 tables)")
-                defs: dict[str, tuple[str, str]] = {}
-                if "message_definitions" in tables:
-                    for typ, enc, text in con.execute(
-                        "SELECT topic_type, encoding, encoded_message_definition FROM message_definitions"
-                    ):
-                        defs[normalize_type(str(typ))] = (str(enc), str(text or ""))
-                ids: dict[int, str] = {}
-                for tid, name, typ, fmt in con.execute("SELECT id, name, type, serialization_format FROM topics"):
-                    msgtype = normalize_type(str(typ))
-                    ids[int(tid)] = str(name)
-                    if name not in topics:
-                        enc, text = defs.get(msgtype, ("", ""))
-                        if enc in ("unknown", "") or not text:
-                            enc, text = "", ""
-                        topics[name] = RawTopic(str(name), msgtype, str(fmt), enc, text)
-                        payloads[name] = []
-                        stamps[name] = []
-            except sqlite3.Error as err:
-                msg = f"corrupt sqlite3 storage ({err})"
-                raise RecordingError(db, msg) from err
-            kept = 0
-            try:
-                for tid, ts, data in con.execute("SELECT topic_id, timestamp, data FROM messages ORDER BY id"):
-                    name = ids.get(int(tid))
-                    if name is None:
-                        msg = f"message on topic id {tid} which the topics table does not define"
-                        raise RecordingError(db, msg)
-                    payloads[name].append(bytes(data))
-                    stamps[name].append(int(ts))
-                    kept += 1
-            except sqlite3.Error as err:
-                msg = f"corrupt sqlite3 storage ({err})"
-                if not recover:
-                    raise RecordingError(db, msg) from err
-                warnings.append(f"{db}: {msg}; recovered the {kept} messages before the damage")
-    for name, topic in topics.items():
-        if payloads[name]:
-            topic.batches.append(Batch.from_payloads(payloads[name], stamps[name]))
-    return RawRecording(path, "rosbag2", topics, warnings=warnings)

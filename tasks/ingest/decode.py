@@ -12,15 +12,16 @@ import json
 from collections.abc import Iterator
 from typing import Any
 
+from rosbags.typesys import Stores, get_types_from_idl, get_types_from_msg, get_typestore
+
 from tasks.errors import RecordingError
-from tasks.ingest.containers import RawTopic
+from tasks.ingest.raw import RawTopic
 
 _IDL_SEP = "=" * 80
 
 
 def typestore_for(topic: RawTopic, path: str) -> Any:
     """A rosbags typestore holding ``topic.msgtype`` and its dependencies; raises ``RecordingError``."""
-    from rosbags.typesys import Stores, get_types_from_idl, get_types_from_msg, get_typestore  # noqa: PLC0415
 
     if not topic.schema:
         store = get_typestore(Stores.ROS1_NOETIC if topic.encoding == "ros1" else Stores.LATEST)

@@ -15,8 +15,8 @@ import numpy.typing as npt
 from tasks.errors import RecordingError
 from tasks.ingest import roles as rl
 from tasks.ingest.bulk import N_FLOATS, bulk_decode
-from tasks.ingest.containers import RawTopic
 from tasks.ingest.decode import decode_topic
+from tasks.ingest.raw import RawTopic
 
 IntArray = npt.NDArray[np.int64]
 F64Array = npt.NDArray[np.float64]
@@ -159,6 +159,25 @@ def cloud_points(msg: Any) -> npt.NDArray[np.float64]:
         arr = np.ndarray((n,), dtype=f"{endian}{kinds[dt]}", buffer=data, offset=off, strides=(step,))
         cols.append(arr.astype(np.float64))
     return np.column_stack(cols) if n else np.zeros((0, 3))
+
+
+def dense_cloud(topic: RawTopic, path: str) -> str | None:
+    """Why a PointCloud2 topic cannot be a marker set (None: it can): more points than a marker set has (or
+    payloads too big to have been kept), or a point count that changes between messages."""
+    first = next(decode_topic(topic, path, {0: [0]}), None) if topic.batches else None
+    points = None
+    if first is not None:
+        try:
+            points = int(_get(first[1], "width")) * int(_get(first[1], "height"))
+        except (KeyError, TypeError, ValueError):
+            points = None
+    if topic.kept < topic.count or (points is not None and points > rl.MARKER_SET_MAX_POINTS):
+        size = f"{points} points" if points is not None else "too many points"
+        return f"a dense PointCloud2 ({size} in its first message; a marker set has at most {rl.MARKER_SET_MAX_POINTS})"
+    lengths = np.concatenate([b.lengths for b in topic.batches]) if topic.batches else np.zeros(0, np.int64)
+    if len(lengths) > 1 and int(lengths.min()) != int(lengths.max()):
+        return "a PointCloud2 whose point count changes between messages (a marker set keeps its points in order)"
+    return None
 
 
 def extract_topic(topic: RawTopic, role: str, path: str, out: Extracted) -> None:

@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+import json
 import re
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import yaml
+
 from tasks.errors import TopicMapError
+from tasks.ingest.selection import Keep, Want
 
 POINT = "geometry_msgs/msg/PointStamped"
 POSE = "geometry_msgs/msg/PoseStamped"
@@ -61,6 +65,16 @@ def detect_role(name: str, msgtype: str, child_frames: Iterable[str] = ()) -> st
     return IGNORED
 
 
+MARKER_SET_MAX_POINTS = 256
+"""Most points a PointCloud2 marker set has: mocap marker sets carry tens to a few hundred markers; a cloud with
+more is a scan (lidar, depth camera)."""
+
+
+def could_have_role(name: str, msgtype: str) -> bool:
+    """Whether detection can give this topic a role (TF child frames and cloud sizes are seen only later)."""
+    return _same_topic(name, META_TOPIC) or marker_capable(msgtype) or wrist_capable(msgtype) or msgtype == CLOUD
+
+
 @dataclass(frozen=True)
 class TopicMap:
     """A parsed ``--topics`` YAML: patterns per role (exact topic names or regular expressions)."""
@@ -68,10 +82,34 @@ class TopicMap:
     source: str
     roles: dict[str, list[str]] = field(default_factory=dict)
 
+    def canonical(self) -> str:
+        """The map as canonical JSON (roles sorted, each role's patterns sorted): equal maps, equal text."""
+        return json.dumps({r: sorted(p) for r, p in self.roles.items()}, sort_keys=True, separators=(",", ":"))
+
+    def role_of(self, name: str) -> str | None:
+        """The role this map gives topic ``name`` (``ignored`` wins, as in ``apply_topic_map``); None: unnamed."""
+        found = None
+        for role in (MARKERS, WRIST, OBJECT_MODEL, META, IGNORED):
+            if any(_matches(p, name) for p in self.roles.get(role, [])):
+                found = role
+        return found
+
+
+def wanted(tmap: TopicMap | None) -> Want:
+    """What a reader keeps of each topic: nothing of those no role can use (cameras, anything the map ignores),
+    the first and the small messages of a point cloud, everything else."""
+
+    def want(name: str, msgtype: str) -> Keep:
+        role = tmap.role_of(name) if tmap is not None else None
+        if role == IGNORED or (role is None and not could_have_role(name, msgtype)):
+            return Keep.NONE
+        return Keep.SMALL if msgtype == CLOUD else Keep.ALL
+
+    return want
+
 
 def parse_topic_map(path: Path) -> TopicMap:
     """Read a topic map YAML: ``markers: [..]``, ``wrist: t``, ``object_model: t``, ``meta: t``, ``ignore: [..]``."""
-    import yaml  # noqa: PLC0415
 
     try:
         doc = yaml.safe_load(path.read_text())

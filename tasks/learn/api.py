@@ -8,14 +8,20 @@ from __future__ import annotations
 
 import hashlib
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from schemas.descriptor import Descriptor, Grasp, ObjectRef, Primitive
 from tasks.arrays import Points
-from tasks.errors import FitError, GraspError
+from tasks.code_version import code_version
+from tasks.errors import FitError, GraspError, bounded
+from tasks.grasp import worker_pool
+from tasks.grasp.api import plan_grasp_for_recording
+from tasks.grasp.planner import PlannerParams
 from tasks.learn.boundaries import refine_boundaries, trim_to_motion
 from tasks.learn.chain import (
     HAND_ONLY,
@@ -33,6 +39,7 @@ from tasks.learn.reversals import split_reversals
 from tasks.recording.load import RecordingData
 from tasks.segment.changepoint import ChangepointParams, search
 from tasks.segment.spectral import runs_from_labels, spectral_labels
+from tasks.simulate.instance import instance_from_meta
 
 CODE_PACKAGES = ("tasks.segment", "tasks.fit", "tasks.learn", "tasks.grasp")
 """Packages whose sources make up ``provenance.code_version`` of a learned descriptor."""
@@ -76,20 +83,26 @@ def segment_spans(prep: PreparedRecording, params: LearnParams, rng: np.random.G
     return search(list(prep.tracks), cp).spans
 
 
-def learn_chain(rec: RecordingData, params: LearnParams, rng: np.random.Generator) -> LearnResult:
-    """Segment and fit the recording's marker tracks; the chain M (time order) with extents C."""
+def segment_recording(rec: RecordingData, params: LearnParams, rng: np.random.Generator) -> list[tuple[float, float]]:
+    """The segments' time spans (s, contiguous, in order) of the recording's marker tracks; ``rng`` draws the
+    spectral segmenter's k-means starts (the change-point search draws nothing)."""
     prep = prepare(rec, params.sigma_floor_m, params.hand_pattern)
     duration = max(float(tr.t_s[-1] - tr.t_s[0]) for tr in prep.tracks)
     if duration < params.min_segment_s:
         tr = prep.tracks[0]
         msg = f"recording lasts {duration:.3f} s, shorter than one segment ({params.min_segment_s} s)"
         raise FitError(msg, tr.name, (float(tr.t_s[0]), float(tr.t_s[-1])))
-    spans = segment_spans(prep, params, rng)
+    return segment_spans(prep, params, rng)
+
+
+def fit_segments(rec: RecordingData, spans: list[tuple[float, float]], params: LearnParams) -> LearnResult:
+    """Classify and fit each span (s) of the recording; the chain M (time order) with extents C."""
+    prep = prepare(rec, params.sigma_floor_m, params.hand_pattern)
     if params.classifier == "bic" and (found := hand_by_motion(prep, spans, params) - prep.hand):
         prep = replace(prep, hand=prep.hand | found)
     fits = [fit_span(prep, a, b, params) for a, b in spans]
     if all(f.kind == "still" for f in fits):
-        names = ", ".join(tr.name for tr in prep.tracks)
+        names = bounded([tr.name for tr in prep.tracks])
         msg = f"every marker is still ({names}): no motion to learn"
         raise FitError(msg, None, (spans[0][0], spans[-1][1]))
     if params.classifier == "bic":
@@ -107,6 +120,11 @@ def learn_chain(rec: RecordingData, params: LearnParams, rng: np.random.Generato
                 f"t={f.t_start:.3f}..{f.t_end:.3f} s: undefined motion dropped ({f.note or 'no model fits'})"
             )
     return LearnResult(tuple(fits), chain, tuple(warnings))
+
+
+def learn_chain(rec: RecordingData, params: LearnParams, rng: np.random.Generator) -> LearnResult:
+    """Segment and fit the recording's marker tracks; the chain M (time order) with extents C."""
+    return fit_segments(rec, segment_recording(rec, params, rng), params)
 
 
 def _primitive(f: SegmentFit) -> Primitive:
@@ -137,36 +155,61 @@ def model_sha256(points: Points) -> str:
     return hashlib.sha256(pts.tobytes()).hexdigest()
 
 
-def _slug(text: str) -> str:
+def slug(text: str) -> str:
+    """``text`` as a descriptor name: runs of characters other than ``[A-Za-z0-9._-]`` become ``-``."""
     out = re.sub(r"[^A-Za-z0-9._-]+", "-", text).strip("-._")
     return out or "demonstration"
 
 
-def default_name(rec: RecordingData) -> str:
-    """``<action>-<object>`` from the recording's meta, else the recording file's stem, else its id."""
-    action = rec.meta.get("action")
-    obj = rec.meta.get("object")
+def name_from_meta(meta: Mapping[str, Any], source: str | Path | None) -> str | None:
+    """The naming rule of every entry point: ``<action>-<object>`` from a recording's meta, else the recording
+    file's name without suffixes; None when neither is known."""
+    action, obj = meta.get("action"), meta.get("object")
     if action and obj:
-        return _slug(f"{action}-{obj}")
-    source = rec.info.get("source")
-    if source:
-        stem = Path(str(source)).name.split(".")[0]
-        if stem:
-            return _slug(stem)
-    return _slug(rec.id)
+        return slug(f"{action}-{obj}")
+    stem = Path(str(source)).name.split(".")[0] if source else ""
+    return slug(stem) if stem else None
+
+
+def default_name(rec: RecordingData) -> str:
+    """The recording's name by ``name_from_meta``, else its id."""
+    return name_from_meta(rec.meta, rec.info.get("source")) or slug(rec.id)
 
 
 def learn_descriptor(
-    rec: RecordingData, params: LearnParams, *, name: str | None = None, rng: np.random.Generator
+    rec: RecordingData,
+    params: LearnParams,
+    *,
+    name: str | None = None,
+    rng: np.random.Generator,
+    seed: int | None = None,
 ) -> Descriptor:
     """Learn T = <O, A, G, M, C> from an ingested recording (world frame, metres, radians).
 
-    Warnings (dropped markers, undefined segments, no grasp) are kept in ``provenance.warnings``.
+    Warnings (dropped markers, undefined segments, no grasp) are kept in ``provenance.warnings``; ``seed``, the
+    seed ``rng`` was made from, in ``provenance.seed``.
     """
     if rec.object_model is not None and len(rec.object_model):
-        _start_grasp_workers()
+        worker_pool.start()  # the planner's processes import pybullet while the chain is learnt
     result = learn_chain(rec, params, rng)
     warnings = list(result.warnings)
+    grasp = plan_recording_grasp(rec, result.chain, rng, warnings)
+    return assemble_descriptor(rec, params, result.chain, grasp, warnings, name=name, seed=seed)
+
+
+def assemble_descriptor(
+    rec: RecordingData,
+    params: LearnParams,
+    chain: tuple[Primitive, ...],
+    grasp: Grasp | None,
+    warnings: list[str],
+    *,
+    name: str | None = None,
+    seed: int | None = None,
+) -> Descriptor:
+    """The descriptor of a recording from its chain and grasp: name (``name``, else ``default_name``), object
+    reference, provenance (recording, parameters, code version, warnings, ``seed`` and the built-in scene
+    instance the recording's meta names, if any)."""
     obj_name = str(rec.meta.get("object") or (name or default_name(rec)))
     model = rec.object_model
     if model is not None and len(model):
@@ -174,42 +217,38 @@ def learn_descriptor(
         obj = ObjectRef(obj_name, sha, len(model), f"models/{sha}.parquet")
     else:
         obj = ObjectRef(obj_name)
-    grasp = _grasp(rec, result.chain, rng, warnings)
-    from tasks.code_version import code_version  # noqa: PLC0415
-
+    extra: dict[str, object] = {"warnings": list(warnings)} if warnings else {}
+    if seed is not None:
+        extra["seed"] = seed
+    scene, scene_seed = instance_from_meta(rec.meta)
+    if scene is not None:
+        extra["scene"] = {"name": scene, "seed": scene_seed}
     return Descriptor(
-        name=_slug(name) if name else default_name(rec),
+        name=slug(name) if name else default_name(rec),
         action=str(rec.meta.get("action") or "manipulate"),
         object=obj,
         grasp=grasp,
-        chain=result.chain,
+        chain=chain,
         recording_id=rec.id,
         recording_path=str(rec.info.get("source")) if rec.info.get("source") else None,
         parameters=params.to_dict(),
         code_version=code_version(*CODE_PACKAGES),
-        extra_provenance={"warnings": warnings} if warnings else {},
+        extra_provenance=extra,
     )
 
 
-def _start_grasp_workers() -> None:
-    """Start the grasp planner's worker processes while the chain is learnt (``tasks.grasp.worker_pool.start``)."""
-    try:
-        from tasks.grasp.worker_pool import start  # noqa: PLC0415
-    except ImportError:
-        return
-    start()
-
-
-def _grasp(
-    rec: RecordingData, chain: tuple[Primitive, ...], rng: np.random.Generator, warnings: list[str]
+def plan_recording_grasp(
+    rec: RecordingData,
+    chain: tuple[Primitive, ...],
+    rng: np.random.Generator,
+    warnings: list[str],
+    planner: PlannerParams | None = None,
 ) -> Grasp | None:
-    try:
-        from tasks.grasp.api import plan_grasp_for_recording  # noqa: PLC0415
-    except ImportError:
-        return None
+    """The grasp planned on the recording's object model from the wrist pose where the chain starts; None (with
+    a warning appended to ``warnings``) when none can be planned, or without an object model."""
     t_seed = chain[0].t_start if chain else None
     try:
-        return plan_grasp_for_recording(rec.object_model, rec.wrist, t_seed, rec.start_ns, rng)
+        return plan_grasp_for_recording(rec.object_model, rec.wrist, t_seed, rec.start_ns, rng, params=planner)
     except GraspError as err:
         warnings.append(f"no grasp: {err}")
         return None

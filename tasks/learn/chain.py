@@ -15,8 +15,10 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from tasks.arrays import FloatArray, Points
+from tasks.errors import bounded
 from tasks.fit.geometry import perpendicular_basis, unit
 from tasks.fit.moments import span_residuals
 from tasks.fit.rigid import PartMotion, ScrewAxis, net_turn, part_motion, rss_about_axis, screw_axis
@@ -26,7 +28,7 @@ from tasks.fit.translation import TranslationFit, fit_translation
 from tasks.learn.params import LearnParams
 from tasks.learn.prepare import MIN_SAMPLES, PreparedRecording, is_orientation_marker
 from tasks.segment.changepoint import MIN_MODEL_SAMPLES
-from tasks.segment.tracks import Track, span_indices
+from tasks.segment.tracks import Track, anisotropy, span_indices
 
 HAND_ONLY = "only hand markers move"
 """Note of a reach or release segment (normal, dropped without a warning)."""
@@ -60,6 +62,7 @@ def marker_kind(track: Track, t0: float, t1: float, undefined: float) -> Kind | 
     if j - i < MIN_MODEL_SAMPLES:
         return None
     res = span_residuals(track.moments, np.array([i]), np.array([j]))
+    precision, excess = anisotropy(track)
     costs = model_costs(
         res.n,
         res.still,
@@ -68,6 +71,7 @@ def marker_kind(track: Track, t0: float, t1: float, undefined: float) -> Kind | 
         sigma_still=track.sigma_hf_m,
         sigma_model=track.sigma_m,
         undefined=undefined,
+        still_noise=(res.scatter, precision[None], np.array([excess])),
     )
     return KINDS[int(np.argmin(costs[0]))]
 
@@ -102,7 +106,7 @@ def fit_span(
     elif all_hand:
         group = moving
     else:
-        who = ", ".join(tr.name for tr in moving)
+        who = bounded([tr.name for tr in moving])
         return SegmentFit("undefined", t0, t1, still_markers=still, note=f"{HAND_ONLY} ({who})")
     group.sort(key=lambda tr: tr.name)
     pts = [_samples(tr, t0, t1)[1] for tr in group]
@@ -321,7 +325,6 @@ def _rest_samples(track: Track, fits: list[SegmentFit], i: int, step: int) -> Po
 
 def _rest_orientation(times: FloatArray, quats: FloatArray, window: tuple[float, float]) -> FloatArray | None:
     """Mean orientation (rotation matrix) of a rigid body over a rest window, None without samples."""
-    from scipy.spatial.transform import Rotation  # noqa: PLC0415
 
     keep = (times >= window[0]) & (times < window[1])
     if keep.sum() < MIN_SAMPLES:
@@ -344,7 +347,6 @@ def _orientation_angle(
 ) -> float | None:
     """Turn (rad) about ``axis_dir`` between the rest orientations of a rigid-body marker of segment i's part,
     or None when no marker of the part has orientations at rest on both sides."""
-    from scipy.spatial.transform import Rotation  # noqa: PLC0415
 
     angles = []
     for name in fits[i].markers:

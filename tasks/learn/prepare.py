@@ -6,6 +6,7 @@ import re
 from dataclasses import dataclass, field
 
 import numpy as np
+import numpy.typing as npt
 from scipy.spatial.transform import Rotation
 
 from tasks.arrays import FloatArray, Points, Quats, StampsNs
@@ -15,6 +16,8 @@ from tasks.segment.tracks import Track, make_track
 
 MIN_SAMPLES = 8
 """A marker with fewer finite samples than this cannot be fitted and is left out (with a warning)."""
+MAX_COORDINATE_M = 1000.0
+"""A marker coordinate beyond this (m) is a corrupt sample, not a motion: capture volumes are tens of metres across."""
 HAND_DISTANCE_STD_M = 0.005
 """A marker whose distance to the wrist varies by less than this (std, m) rides on the hand."""
 
@@ -76,8 +79,28 @@ def _rides_on_wrist(t_ns: StampsNs, pts: Points, wrist: PoseTrack) -> bool:
     return moves and float(np.std(dist)) < HAND_DISTANCE_STD_M
 
 
+def _usable_samples(pts: Points) -> tuple[npt.NDArray[np.bool_], str]:
+    """Rows of ``pts`` (n, 3) that are finite and within ``MAX_COORDINATE_M``, and the dropped ones in words."""
+    nan = np.isnan(pts).any(axis=1)
+    inf = ~nan & np.isinf(pts).any(axis=1)
+    with np.errstate(invalid="ignore"):
+        far = ~nan & ~inf & (np.abs(pts) > MAX_COORDINATE_M).any(axis=1)
+    parts = [
+        f"{int(count)} {what}"
+        for count, what in (
+            (nan.sum(), "NaN samples"),
+            (inf.sum(), "infinite samples"),
+            (far.sum(), f"samples beyond {MAX_COORDINATE_M:g} m"),
+        )
+        if count
+    ]
+    keep: npt.NDArray[np.bool_] = np.logical_not(nan | inf | far)
+    return keep, ", ".join(parts)
+
+
 def prepare(rec: RecordingData, sigma_floor_m: float, hand_pattern: str) -> PreparedRecording:
-    """Drop NaN samples, order by time, name hand markers; raise ``FitError`` when no marker is usable."""
+    """Drop NaN, infinite and absurd samples and order by time (each with a warning), name hand markers; raise
+    ``FitError`` when no marker is usable."""
     raw: dict[str, tuple[StampsNs, Points]] = {n: (m.stamps_ns, m.points) for n, m in rec.markers.items()}
     for name, pose in rec.poses.items():
         if pose.role != "wrist":
@@ -93,12 +116,14 @@ def prepare(rec: RecordingData, sigma_floor_m: float, hand_pattern: str) -> Prep
     wrist = rec.wrist
     for name in sorted(raw):
         stamps, pts = raw[name]
-        keep = np.isfinite(pts).all(axis=1)
+        keep, dropped_words = _usable_samples(np.asarray(pts, dtype=np.float64))
         if not keep.any():
-            warnings.append(f"marker {name}: every sample is NaN; left out")
+            warnings.append(f"marker {name}: every sample is NaN, infinite or beyond {MAX_COORDINATE_M:g} m; left out")
             continue
         stamps = stamps[keep]
         pts = np.asarray(pts[keep], dtype=np.float64)
+        if backwards := int((np.diff(stamps) < 0).sum()):
+            warnings.append(f"marker {name}: {backwards} time stamps go backwards; samples sorted by time")
         order = np.argsort(stamps, kind="stable")
         stamps = stamps[order]
         pts = pts[order]
@@ -112,8 +137,8 @@ def prepare(rec: RecordingData, sigma_floor_m: float, hand_pattern: str) -> Prep
             span = (float(t_s[0]), float(t_s[-1]))
             warnings.append(f"marker {name} t={span[0]:.3f}..{span[1]:.3f} s: only {len(pts)} samples; left out")
             continue
-        if dropped := int((~keep).sum()):
-            warnings.append(f"marker {name}: {dropped} NaN samples dropped")
+        if dropped_words:
+            warnings.append(f"marker {name}: {dropped_words} dropped")
         tracks.append(make_track(name, t_s, pts, sigma_floor_m))
         if pattern.search(name) or (wrist is not None and _rides_on_wrist(stamps, pts, wrist)):
             hand.add(name)

@@ -17,6 +17,11 @@ from types import TracebackType
 from typing import Any, Literal
 
 import numpy as np
+from mcap.writer import CompressionType
+from mcap.writer import Writer as McapWriter
+from rosbags.rosbag1 import Writer as Bag1Writer
+from rosbags.rosbag2 import Writer as Bag2Writer
+from rosbags.typesys import Stores, get_typestore
 
 from tasks.arrays import FloatArray, check_points
 from tasks.errors import RecordingError
@@ -199,8 +204,6 @@ def _build(typestore: Any, m: _Pending, frame_id: str, ros1: bool) -> Any:
 
 
 def _typestore(ros1: bool) -> Any:
-    from rosbags.typesys import Stores, get_typestore  # noqa: PLC0415
-
     return get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
 
 
@@ -213,12 +216,10 @@ def _topic_order(messages: list[_Pending]) -> list[tuple[str, str]]:
 
 
 def _write_mcap(path: Path, messages: list[_Pending], frame_id: str, compression: str) -> None:
-    from mcap.writer import CompressionType, Writer  # noqa: PLC0415
-
     typestore = _typestore(ros1=False)
     kind = {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4, "none": CompressionType.NONE}[compression]
     with path.open("wb") as fh:
-        writer = Writer(fh, compression=kind)
+        writer = McapWriter(fh, compression=kind)
         writer.start(profile="ros2", library="pbd")
         schema_ids: dict[str, int] = {}
         channel_ids: dict[str, int] = {}
@@ -238,14 +239,12 @@ def _write_mcap(path: Path, messages: list[_Pending], frame_id: str, compression
 
 
 def _write_bag(path: Path, messages: list[_Pending], frame_id: str, compression: str) -> None:
-    from rosbags.rosbag1 import Writer  # noqa: PLC0415
-
     typestore = _typestore(ros1=True)
-    writer = Writer(path)
+    writer = Bag1Writer(path)
     if compression == "lz4":
-        writer.set_compression(Writer.CompressionFormat.LZ4)
+        writer.set_compression(Bag1Writer.CompressionFormat.LZ4)
     elif compression == "bz2":
-        writer.set_compression(Writer.CompressionFormat.BZ2)
+        writer.set_compression(Bag1Writer.CompressionFormat.BZ2)
     with writer:
         conns = {t: writer.add_connection(t, ty, typestore=typestore) for t, ty in _topic_order(messages)}
         for m in messages:
@@ -254,10 +253,8 @@ def _write_bag(path: Path, messages: list[_Pending], frame_id: str, compression:
 
 
 def _write_rosbag2(path: Path, messages: list[_Pending], frame_id: str) -> None:
-    from rosbags.rosbag2 import Writer  # noqa: PLC0415
-
     typestore = _typestore(ros1=False)
-    with Writer(path, version=9) as writer:
+    with Bag2Writer(path, version=9) as writer:
         conns = {t: writer.add_connection(t, ty, typestore=typestore) for t, ty in _topic_order(messages)}
         for m in messages:
             data = typestore.serialize_cdr(_build(typestore, m, frame_id, ros1=False), m.msgtype)

@@ -5,21 +5,36 @@ The folder is staged under ``<store>/tmp`` and renamed into place, so a report i
 
 from __future__ import annotations
 
+import dataclasses
+import hashlib
 import html
-import importlib
 import json
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import matplotlib.pyplot as plt
 import numpy as np
 
-from schemas.descriptor import Descriptor
+from schemas.descriptor import Descriptor, canonical_json
+from tasks.code_version import code_version
 from tasks.errors import StoreError
+from tasks.hand import barrett
+from tasks.recording.load import load_recording
+from tasks.report import plots
 from tasks.report.markdown import summary_markdown
+from tasks.report.plots import quat_to_matrix
 from tasks.report.refs import EntryResult
+from tasks.report.scene_mcap import axes_mcap_bytes, scene_update
 from tasks.store import Store, write_bytes_atomic
+
+FIGURES_DIRNAME = "figures"
+"""Folder under ``reports/`` of the parts shared by every run's report, one per content (``cached_part``)."""
+PART_FILE = "part.html"
+"""A shared part's HTML fragment, beside its figures."""
+SRC_MARK = "@part@/"
+"""Stands for a part's folder in its fragment's links until the part is published."""
 
 MAX_MARKERS_DRAWN = 16
 """Marker trajectories drawn per recording at most (the chain's markers first)."""
@@ -45,34 +60,19 @@ class ReportPaths:
 
 def _save(fig: Any, path: Path) -> str:
     """Save a matplotlib figure as PNG and close it; returns the file name for the HTML."""
-    import matplotlib.pyplot as plt  # noqa: PLC0415
 
     fig.savefig(path, dpi=90)
     plt.close(fig)
-    return path.name
+    return f"{SRC_MARK}{path.name}"
 
 
 def _finger_dofs(a1: float, a2: float) -> list[float] | None:
-    """Barrett [spread, f1, f2, f3] in rad from the grasp stage, when it provides the mapping."""
-    try:
-        barrett = importlib.import_module("tasks.grasp.barrett")
-    except ImportError:
-        return None
-    fn = getattr(barrett, "dofs_from_eigengrasps", None)
-    return None if fn is None else [float(v) for v in np.asarray(fn(a1, a2)).ravel()]
+    """Barrett [spread, f1, f2, f3] in rad of the eigengrasp amplitudes ``a1``, ``a2``."""
+    return [float(v) for v in np.asarray(barrett.dofs_from_eigengrasps(a1, a2)).ravel()]
 
 
 def _hand_lines(grasp: Any) -> list[Any] | None:
     """The Barrett hand's three fingers as world polylines (knuckle → joints → tip, metres) at the grasp."""
-    try:
-        barrett = importlib.import_module("tasks.grasp.barrett")
-    except ImportError:
-        return None
-    needed = ("dofs_from_eigengrasps", "joint_positions", "link_transforms", "DISTAL_LENGTH")
-    if not all(hasattr(barrett, n) for n in needed):
-        return None
-    from tasks.report.plots import quat_to_matrix  # noqa: PLC0415
-
     tfs = barrett.link_transforms(barrett.joint_positions(barrett.dofs_from_eigengrasps(*grasp.eigengrasps)))
     rot = quat_to_matrix(grasp.wrist_orientation)
     pos = np.asarray(grasp.wrist_position)
@@ -85,12 +85,9 @@ def _hand_lines(grasp: Any) -> list[Any] | None:
     return lines
 
 
-def _entry_section(store: Store, entry: EntryResult, folder: Path, mcaps: list[Path]) -> str:
-    """Plots and tables of one recording; writes its PNGs and axes MCAP into ``folder``."""
-    from tasks.recording.load import load_recording  # noqa: PLC0415
-    from tasks.report import plots  # noqa: PLC0415
-    from tasks.report.scene_mcap import axes_mcap_bytes, scene_update  # noqa: PLC0415
-
+def _entry_section(store: Store, entry: EntryResult, mcaps: list[Path]) -> str:
+    """One recording's section: its status (this run's) and the descriptor's and simulation's figures, each
+    rendered once per content (``cached_part``) and shared by every run's report."""
     title = html.escape(Path(entry.source).name)
     if entry.descriptor is None:
         return f"<section><h2>{title}</h2><p class=failed>failed: {html.escape(entry.error or '?')}</p></section>"
@@ -98,11 +95,55 @@ def _entry_section(store: Store, entry: EntryResult, folder: Path, mcaps: list[P
     desc = Descriptor.from_json(Path(ref.path).read_text(), source=ref.path)
     stem = f"{desc.name}-v{ref.version}"
     parts = [f"<section><h2 id='{html.escape(stem)}'>{html.escape(ref.ref)} <small>from {title}</small></h2>"]
-    parts.append(
-        f"<p>status <b class={entry.status}>{entry.status}</b> · id <code>{desc.id[:16]}</code> · action "
+    parts.append(f"<p>status <b class={entry.status}>{entry.status}</b></p>")
+    rec_id = entry.recording.recording_id if entry.recording is not None else None
+    body, files = cached_part(
+        store, {"descriptor": desc.id, "recording": rec_id}, lambda folder: _descriptor_html(store, entry, desc, folder)
+    )
+    parts.append(body)
+    mcaps += [f for f in files if f.suffix == ".mcap"]
+    sim = entry.simulation
+    if sim is not None and sim.skipped is None:
+        key = {"simulation": dataclasses.asdict(sim)}
+        parts.append(cached_part(store, key, lambda folder: (_simulation_html(entry, folder), []))[0])
+    else:
+        parts.append(_simulation_html(entry, store.reports_dir))  # draws nothing when not simulated
+    if entry.status == "changed":
+        diff_key = {"diff": desc.id, "previous": ref.previous}
+        parts.append(cached_part(store, diff_key, lambda folder: (_diff_html(entry, folder), []))[0])
+    else:
+        parts.append(_diff_html(entry, store.reports_dir))  # draws nothing for a new or unchanged version
+    parts.append("</section>")
+    return "\n".join(parts)
+
+
+def cached_part(
+    store: Store, key: dict[str, Any], render: Callable[[Path], tuple[str, list[Path]]]
+) -> tuple[str, list[Path]]:
+    """An HTML fragment and its files, rendered by ``render(folder)`` once per ``key`` (content ids) and report
+    code version into ``<store>/reports/figures/<hash>/``; its links point there from a run's report folder."""
+    digest = hashlib.sha256(canonical_json({**key, "code": code_version("tasks.report")}).encode()).hexdigest()[:24]
+    final = store.reports_dir / FIGURES_DIRNAME / digest
+    if not (final / PART_FILE).is_file():
+        with store.staging("figures") as staged:
+            fragment, _ = render(staged)
+            link = f"../{FIGURES_DIRNAME}/{digest}/"
+            fragment = fragment.replace(SRC_MARK, link)
+            write_bytes_atomic(staged / PART_FILE, fragment.encode())
+            store.publish_dir(staged, final)  # False: a concurrent run published the same part first
+    files = sorted(p for p in final.iterdir() if p.name != PART_FILE)
+    return (final / PART_FILE).read_text(), files
+
+
+def _descriptor_html(store: Store, entry: EntryResult, desc: Descriptor, folder: Path) -> tuple[str, list[Path]]:
+    """The descriptor's table and figures (trajectories, timeline, axes MCAP, model selection, grasp) in ``folder``."""
+    mcaps: list[Path] = []
+    stem = "descriptor"
+    parts = [
+        f"<p>id <code>{desc.id[:16]}</code> · action "
         f"<b>{html.escape(desc.action)}</b> · object <b>{html.escape(desc.object.name)}</b> · parameters "
         f"<code>{html.escape(json.dumps(desc.parameters, sort_keys=True))}</code></p>"
-    )
+    ]
     rows = "".join(
         f"<tr><td>{i}</td><td>{p.kind}</td><td>{_fmt(p.pos)}</td><td>{_fmt(p.dir)}</td><td>{p.extent:.4f}</td>"
         f"<td>{_fmt_t(p.t_start)}..{_fmt_t(p.t_end)}</td><td>{_rms_mm(p.fit)}</td></tr>"
@@ -131,10 +172,11 @@ def _entry_section(store: Store, entry: EntryResult, folder: Path, mcaps: list[P
             mcap_path, axes_mcap_bytes([(rec.start_ns, scene_update(desc, rec.start_ns, frame, starts))])
         )
         mcaps.append(mcap_path)
+        source = html.escape(str(rec.info.get("source", entry.source)))
         parts.append(
-            f"<p>Axes as foxglove.SceneUpdate on <code>/pbd/axes</code>: <a href='{mcap_path.name}'>{mcap_path.name}"
-            f"</a> (open it together with <code>{html.escape(str(rec.info.get('source', entry.source)))}</code> in "
-            "Foxglove or Lichtblick).</p>"
+            f"<p>Axes as foxglove.SceneUpdate on <code>/pbd/axes</code>: "
+            f"<a href='{SRC_MARK}{mcap_path.name}'>{mcap_path.name}</a> (open it together with <code>{source}</code> "
+            "in Foxglove or Lichtblick).</p>"
         )
     img = _save(plots.model_selection_figure(desc), folder / f"{stem}-models.png")
     parts.append(f"<h3>model selection per segment</h3><img src='{img}'>")
@@ -146,15 +188,12 @@ def _entry_section(store: Store, entry: EntryResult, folder: Path, mcaps: list[P
         parts.append(f"<h3>planned grasp</h3><img src='{img}'>")
     else:
         parts.append("<h3>planned grasp</h3><p>none (no object model or no grasp planned)</p>")
-    parts.append(_simulation_html(entry, folder, stem))
-    parts.append(_diff_html(entry, folder, stem))
-    parts.append("</section>")
-    return "\n".join(parts)
+    return "\n".join(parts), mcaps
 
 
-def _simulation_html(entry: EntryResult, folder: Path, stem: str) -> str:
-    from tasks.report import plots  # noqa: PLC0415
-
+def _simulation_html(entry: EntryResult, folder: Path) -> str:
+    """The simulation's verdict and figures (extent reached, joint trace), drawn into ``folder``."""
+    stem = "simulation"
     sim = entry.simulation
     if sim is None:
         return "<h3>simulation</h3><p>not simulated</p>"
@@ -166,7 +205,7 @@ def _simulation_html(entry: EntryResult, folder: Path, stem: str) -> str:
         out.append(f"<p>{html.escape(sim.detail)}</p>")
     if sim.target:
         fig = plots.simulation_extent_figure(sim.joints, sim.achieved, sim.target)
-        out.append(f"<img src='{_save(fig, folder / f'{stem}-simulation.png')}'>")
+        out.append(f"<img src='{_save(fig, folder / f'{stem}-extent.png')}'>")
     if sim.trace_path and Path(sim.trace_path).is_file():
         with np.load(sim.trace_path, allow_pickle=False) as npz:
             times = np.asarray(npz["times_s"], dtype=np.float64)
@@ -180,9 +219,9 @@ def _simulation_html(entry: EntryResult, folder: Path, stem: str) -> str:
     return "\n".join(out)
 
 
-def _diff_html(entry: EntryResult, folder: Path, stem: str) -> str:
-    from tasks.report import plots  # noqa: PLC0415
-
+def _diff_html(entry: EntryResult, folder: Path) -> str:
+    """What changed from the previous version, with its figure drawn into ``folder`` (changed versions only)."""
+    stem = "diff"
     if entry.descriptor is None or entry.status != "changed":
         prev = "first version" if entry.status == "new" else "same content as the previous version"
         return f"<h3>against the previous version</h3><p>{prev}</p>"
@@ -253,7 +292,7 @@ def write_report(store: Store, run_id: str, title: str, entries: Sequence[EntryR
         raise StoreError(final, msg)
     mcaps: list[Path] = []
     with store.staging("report") as staged:
-        sections = [_entry_section(store, e, staged, mcaps) for e in entries]
+        sections = [_entry_section(store, e, mcaps) for e in entries]
         md = summary_markdown(title, entries, final / "report.html")
         rows = "".join(
             f"<tr><td>{html.escape(Path(e.source).name)}</td>"
@@ -274,8 +313,7 @@ def write_report(store: Store, run_id: str, title: str, entries: Sequence[EntryR
         if not store.publish_dir(staged, final):
             msg = "a report for this run already exists"
             raise StoreError(final, msg)
-    moved = tuple(final / p.name for p in mcaps)
-    return ReportPaths(final / "report.html", final, moved, md)
+    return ReportPaths(final / "report.html", final, tuple(mcaps), md)
 
 
 def _sim_text(entry: EntryResult) -> str:

@@ -14,6 +14,7 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
+from mcap.writer import Writer
 
 from schemas.descriptor import Descriptor
 
@@ -146,7 +147,6 @@ def scene_update(
 
 def axes_mcap_bytes(updates: Sequence[tuple[int, dict[str, Any]]]) -> bytes:
     """MCAP bytes holding ``(stamp_ns, SceneUpdate dict)`` messages on ``/pbd/axes`` (JSON encoding)."""
-    from mcap.writer import Writer  # noqa: PLC0415
 
     buf = io.BytesIO()
     writer = Writer(buf)

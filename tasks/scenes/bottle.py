@@ -3,7 +3,7 @@
 Base frame (metres): z up, origin on the floor under the bottle's axis. The bottle is fixed (held in a stand);
 the cap turns on joint ``cap_turn`` (continuous, axis +z): unscrewing a right-hand thread is counter-clockwise
 seen from above, a positive rotation about +z. The hand grips the cap from above (the conventions of
-``tasks.simulate.objects.CapSpec``). Four markers on the cap, around its rim and on its top.
+``tests.simulate.objects.CapSpec``). Four markers on the cap, around its rim and on its top.
 """
 
 from __future__ import annotations
@@ -12,9 +12,9 @@ import math
 
 import numpy as np
 
+from tasks.hand.grips import CAP_CURL_RAD, curl_eigengrasps
 from tasks.scenes.parts import Joint, Link, Shape, draw_placement, palm_quat, uniform, urdf_text
 from tasks.scenes.scene import Marker, Motion, Scene
-from tasks.simulate.objects import CAP_CURL_RAD, curl_eigengrasps
 
 CAP_RADIUS_M = 0.02
 """Nominal cap: 40 mm across (a wide-mouth bottle); randomised 12-30 mm radius."""

@@ -4,7 +4,7 @@ Base frame (metres): z up, origin on the floor at the hinge line, the door's fro
 towards -x, the leaf spans +y from the hinge. Joint ``door_hinge`` turns the leaf about +z (positive = opening
 towards the viewer); joint ``lever_turn`` turns the lever about +x, the door's inward normal, so a positive turn
 presses the lever (which points back towards the hinge) down. The hand grips the lever bar from the front
-(the conventions of ``tasks.simulate.objects.LeverDoorSpec``). Markers: three on the lever, three on the leaf.
+(the conventions of ``tests.simulate.objects.LeverDoorSpec``). Markers: three on the lever, three on the leaf.
 """
 
 from __future__ import annotations
@@ -13,9 +13,9 @@ import math
 
 import numpy as np
 
+from tasks.hand.grips import BAR_CURL_RAD, HANDLE_RADIUS, HANDLE_STANDOFF, PALM_TO_BAR, curl_eigengrasps
 from tasks.scenes.parts import Joint, Link, Shape, draw_placement, palm_quat, uniform, urdf_text
 from tasks.scenes.scene import Marker, Motion, Scene
-from tasks.simulate.objects import BAR_CURL_RAD, HANDLE_RADIUS, HANDLE_STANDOFF, PALM_TO_BAR, curl_eigengrasps
 
 LEAF_WIDTH_M, LEAF_HEIGHT_M = 0.85, 2.00
 """Nominal leaf: 85 x 200 cm (DIN 18101), 40 mm thick, a light hollow-core door."""

@@ -4,7 +4,7 @@ hinge.
 Base frame (metres): z up, origin on the floor under the oven's centre, the oven's front looks towards -x.
 The door is hinged on the oven's left side as seen from the front (+y edge) and opens towards the viewer, a
 positive rotation of joint ``door_hinge`` (axis -z). A vertical bar handle stands in front of the door's free edge;
-the hand grips it from the front (the conventions of ``tasks.simulate.objects``). Three markers on the door.
+the hand grips it from the front (the conventions of ``tests.simulate.objects``). Three markers on the door.
 """
 
 from __future__ import annotations
@@ -13,9 +13,9 @@ import math
 
 import numpy as np
 
+from tasks.hand.grips import BAR_CURL_RAD, HANDLE_RADIUS, HANDLE_STANDOFF, PALM_TO_BAR, curl_eigengrasps
 from tasks.scenes.parts import Joint, Link, Shape, bar_handle, draw_placement, palm_quat, uniform, urdf_text
 from tasks.scenes.scene import Marker, Motion, Scene
-from tasks.simulate.objects import BAR_CURL_RAD, HANDLE_RADIUS, HANDLE_STANDOFF, PALM_TO_BAR, curl_eigengrasps
 
 WIDTH_M, DEPTH_M, HEIGHT_M = 0.50, 0.36, 0.30
 """Nominal outer size of the oven (a 25-litre countertop model: 50 x 36 x 30 cm)."""

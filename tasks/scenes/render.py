@@ -13,11 +13,13 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
+import pybullet as pb
 
 from tasks.arrays import FloatArray
 from tasks.errors import SceneError
+from tasks.png import png_bytes
+from tasks.scenes.kinematics import link_frames, link_indices, palm_pose_world, rotation_from_quat, scene_client
 from tasks.scenes.scene import HAND_LINK, Scene
-from tasks.simulate.render import png_bytes
 
 FOV_DEG = 40.0
 VIEW_DIRECTION = (-1.0, -0.75, 0.55)
@@ -32,9 +34,6 @@ THUMB_COLOUR = (1.0, 0.85, 0.0, 1.0)
 
 
 def _model_box(client: int, body: int, scene: Scene) -> tuple[FloatArray, FloatArray]:
-    import pybullet as pb  # noqa: PLC0415
-
-    from tasks.scenes.kinematics import link_indices  # noqa: PLC0415
 
     index = link_indices(client, body)
     lows, highs = [], []
@@ -46,8 +45,6 @@ def _model_box(client: int, body: int, scene: Scene) -> tuple[FloatArray, FloatA
 
 
 def _marker_positions(client: int, body: int, scene: Scene) -> list[tuple[FloatArray, tuple[float, ...]]]:
-    from tasks.scenes.kinematics import link_frames, palm_pose_world, rotation_from_quat  # noqa: PLC0415
-
     links = list(dict.fromkeys(m.link for m in scene.markers if m.link != HAND_LINK))
     frames = link_frames(client, body, links)
     out: list[tuple[FloatArray, tuple[float, ...]]] = []
@@ -64,9 +61,6 @@ def _marker_positions(client: int, body: int, scene: Scene) -> list[tuple[FloatA
 
 def render_rgb(scene: Scene, width: int, height: int) -> np.ndarray:
     """(height, width, 3) uint8 RGB picture of ``scene`` at the demonstration's start."""
-    import pybullet as pb  # noqa: PLC0415
-
-    from tasks.scenes.kinematics import rotation_from_quat, scene_client  # noqa: PLC0415
 
     if width < 16 or height < 16:
         msg = f"picture size {width}x{height}: need at least 16x16 pixels"

@@ -15,7 +15,7 @@ Quat = tuple[float, float, float, float]
 
 HAND_LINK = "@hand"
 """``Marker.link`` of a marker worn by the demonstrator (the sliding door's thumb marker): its offset is in the
-palm frame of ``tasks.grasp.barrett`` (z = approach)."""
+palm frame of ``tasks.hand.barrett`` (z = approach)."""
 
 
 @dataclass(frozen=True)
@@ -43,7 +43,7 @@ class Scene:
     """A built-in scene instance (nominal when ``seed`` is None, else randomised by it).
 
     ``palm_position``/``palm_orientation`` is the demonstrated grasp: the Barrett palm frame
-    (``tasks.grasp.barrett``: +z approach) in the ``grasp_link`` frame, at the joint values of the first motion's
+    (``tasks.hand.barrett``: +z approach) in the ``grasp_link`` frame, at the joint values of the first motion's
     start. ``grasp_eigengrasps`` are the amplitudes of that grasp. ``model_links`` are the links whose surfaces
     make the object model (what a 3-D digitizer would scan). ``joint_start`` holds every movable joint's value
     when the demonstration begins (joints not listed start at 0).

@@ -10,9 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from tasks.hand.grips import BAR_CURL_RAD, HANDLE_RADIUS, HANDLE_STANDOFF, PALM_TO_BAR, curl_eigengrasps
 from tasks.scenes.parts import Joint, Link, Shape, bar_handle, draw_placement, palm_quat, uniform, urdf_text
 from tasks.scenes.scene import HAND_LINK, Marker, Motion, Scene
-from tasks.simulate.objects import BAR_CURL_RAD, HANDLE_RADIUS, HANDLE_STANDOFF, PALM_TO_BAR, curl_eigengrasps
 
 WIDTH_M, DEPTH_M, HEIGHT_M = 1.20, 0.45, 0.80
 """Nominal sideboard: 120 cm wide, 45 cm deep, 80 cm tall (plinth included)."""

@@ -15,6 +15,13 @@ import numpy as np
 
 from tasks.arrays import FloatArray, Points
 from tasks.errors import SceneError
+from tasks.scenes.kinematics import (
+    joint_values_at_motion,
+    link_frames,
+    rotation_from_quat,
+    scene_client,
+    set_joints,
+)
 from tasks.scenes.scene import Scene
 
 
@@ -93,13 +100,6 @@ def _link_collisions(urdf: str, link: str) -> list[tuple[str, tuple[float, ...],
 
 def model_shapes(scene: Scene) -> list[WorldShape]:
     """The collision shapes of ``scene.model_links`` placed in the world at the demonstration's start."""
-    from tasks.scenes.kinematics import (  # noqa: PLC0415 - pybullet at call time
-        joint_values_at_motion,
-        link_frames,
-        rotation_from_quat,
-        scene_client,
-        set_joints,
-    )
 
     with scene_client(scene) as (client, body):
         if scene.motions:

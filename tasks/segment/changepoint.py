@@ -18,7 +18,7 @@ import numpy as np
 from tasks.arrays import FloatArray
 from tasks.fit.moments import concat_moments, span_residuals
 from tasks.fit.select import model_costs
-from tasks.segment.tracks import Track
+from tasks.segment.tracks import Track, anisotropy
 
 IntArray = np.ndarray
 
@@ -57,6 +57,8 @@ class Segmentation:
 def _marker_cost(track: Track, start: IntArray, stop: IntArray, undefined: float) -> FloatArray:
     """(b,) cost in nats of the best model of ``track`` over sample spans [start, stop); 0 for < 4 samples."""
     res = span_residuals(track.moments, start, stop)
+    precision, excess = anisotropy(track)
+    b = len(res.n)
     costs = model_costs(
         res.n,
         res.still,
@@ -65,6 +67,7 @@ def _marker_cost(track: Track, start: IntArray, stop: IntArray, undefined: float
         sigma_still=track.sigma_hf_m,
         sigma_model=track.sigma_m,
         undefined=undefined,
+        still_noise=(res.scatter, np.broadcast_to(precision, (b, 3, 3)), np.full(b, excess)),
     )
     best: FloatArray = np.where(
         res.count >= MIN_MODEL_SAMPLES, costs.min(axis=1), costs[:, FEW_SAMPLE_MODELS].min(axis=1)
@@ -100,6 +103,9 @@ def search(tracks: list[Track], params: ChangepointParams) -> Segmentation:
     rows = np.stack([np.searchsorted(tr.t_s, grid, side="left") + off for tr, off in zip(tracks, offsets, strict=True)])
     sig_still = np.array([tr.sigma_hf_m for tr in tracks])
     sig_model = np.array([tr.sigma_m for tr in tracks])
+    still_noise = [anisotropy(tr) for tr in tracks]
+    precisions = np.stack([p for p, _ in still_noise])
+    excesses = np.array([e for _, e in still_noise])
     n_markers = len(tracks)
 
     def cost(cands: IntArray, end: int) -> FloatArray:
@@ -114,6 +120,7 @@ def search(tracks: list[Track], params: ChangepointParams) -> Segmentation:
             sigma_still=np.repeat(sig_still, len(cands)),
             sigma_model=np.repeat(sig_model, len(cands)),
             undefined=params.undefined_nats,
+            still_noise=(res.scatter, np.repeat(precisions, len(cands), axis=0), np.repeat(excesses, len(cands))),
         )
         best_model = np.where(
             res.count >= MIN_MODEL_SAMPLES, costs.min(axis=1), costs[:, FEW_SAMPLE_MODELS].min(axis=1)

@@ -15,6 +15,11 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
+from scipy.linalg import eigh
+from scipy.sparse import csr_matrix
+from scipy.sparse.linalg import lobpcg
+from scipy.spatial import cKDTree
+from sklearn.cluster import KMeans
 
 from tasks.arrays import FloatArray, Labels, Points
 
@@ -49,23 +54,17 @@ def spectral_labels(
     max_k: int = 12,
 ) -> SpectralResult:
     """Spectral clustering of (n, 3) points (m) at times t_s (s) into k clusters (Table I of the paper)."""
-    from sklearn.cluster import KMeans  # noqa: PLC0415
 
     n = len(points)
     x = np.column_stack([points / delta_p_m, (t_s - t_s[0]) / delta_t_s])
     n_eig = min(n - 1, max_k + 1 if k == "auto" else int(k))
     if n <= DENSE_LIMIT:
-        from scipy.linalg import eigh  # noqa: PLC0415
-
         aff = _affinity_dense(x)
         deg = aff.sum(axis=1)
         inv = 1.0 / np.sqrt(deg)
         lap = aff * inv[:, None] * inv[None, :]
         vals, vecs = eigh(lap, subset_by_index=[n - n_eig, n - 1])
     else:
-        from scipy.sparse import csr_matrix  # noqa: PLC0415
-        from scipy.spatial import cKDTree  # noqa: PLC0415
-
         dist, nbr = cKDTree(x).query(x, k=min(NEIGHBOURS, n))
         rows = np.repeat(np.arange(n), nbr.shape[1])
         aff_s = csr_matrix((np.exp(-0.5 * dist.ravel() ** 2), (rows, nbr.ravel())), shape=(n, n))
@@ -73,7 +72,6 @@ def spectral_labels(
         deg = np.asarray(aff_s.sum(axis=1)).ravel()
         inv = 1.0 / np.sqrt(deg)
         lap_s = aff_s.multiply(inv[:, None]).multiply(inv[None, :]).tocsr()
-        from scipy.sparse.linalg import lobpcg  # noqa: PLC0415
 
         # a block method: Lanczos (eigsh) misses repeated eigenvalues (several near-disconnected clusters)
         block = rng.normal(size=(n, min(n - 1, n_eig + 4)))

@@ -9,7 +9,12 @@ import numpy as np
 
 from tasks.arrays import FloatArray, Points
 from tasks.fit.moments import PrefixMoments, prefix_moments
-from tasks.fit.noise import noise_sigma
+from tasks.fit.noise import noise_covariance, noise_sigma
+from tasks.fit.select import SIGMA_MIN_M
+
+ANISOTROPY_FLOOR = 0.01
+"""Smallest noise variance along any axis, as a fraction of the largest: a camera's depth noise is 3 to 30 times
+its lateral noise (1/100 in variance at most), and no real sensor is noise-free along an axis."""
 
 INDEPENDENT_HZ = 10.0
 """Rate (Hz) of independent evidence about a path: a hand-driven mechanism's departures from its ideal line or
@@ -20,7 +25,8 @@ closer than that add no independent evidence. A sample weighs its share of time 
 @dataclass(frozen=True)
 class Track:
     """One marker: times (s since recording start), finite (n, 3) points (m, world), sample weights (n,),
-    weighted moments, model noise sigma (m, with the floor) and sensor noise sigma (m, from the data)."""
+    weighted moments, model noise sigma (m, with the floor), sensor noise sigma (m, from the data) and its
+    covariance."""
 
     name: str
     t_s: FloatArray
@@ -29,6 +35,8 @@ class Track:
     sigma_m: float
     sigma_hf_m: float
     weights: FloatArray
+    noise_cov: FloatArray
+    """(3, 3) sensor noise covariance (m^2, world axes), anisotropic where it is."""
 
     @property
     def mean_weight(self) -> float:
@@ -55,7 +63,20 @@ def make_track(name: str, t_s: FloatArray, points: Points, sigma_floor_m: float)
     """Build a ``Track`` from finite samples sorted by time; sigma = max(high-frequency noise, floor)."""
     hf = noise_sigma(points, t_s)
     weights = sample_weights(t_s)
-    return Track(name, t_s, points, prefix_moments(points, weights), max(hf, sigma_floor_m), hf, weights)
+    cov = noise_covariance(points, t_s)
+    return Track(name, t_s, points, prefix_moments(points, weights), max(hf, sigma_floor_m), hf, weights, cov)
+
+
+def anisotropy(track: Track) -> tuple[FloatArray, float]:
+    """The still model's noise for ``tasks.fit.select.model_costs``: precision (3, 3, 1/m^2) of the marker's
+    noise covariance with the eigenvalues floored at ``ANISOTROPY_FLOOR`` of the largest, and the per-sample
+    log-normaliser excess (nats) of an isotropic noise of the same total power over it."""
+    evals, evecs = np.linalg.eigh(track.noise_cov)
+    top = max(float(evals[-1]), SIGMA_MIN_M**2)
+    evals = np.maximum(evals, ANISOTROPY_FLOOR * top)
+    iso = float(evals.mean())
+    precision: FloatArray = (evecs / evals) @ evecs.T
+    return precision, float(1.5 * np.log(iso) - 0.5 * np.log(evals).sum())
 
 
 def span_indices(track: Track, t_from: float, t_to: float) -> tuple[int, int]:

@@ -5,11 +5,13 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pybullet as pb
 
 from schemas.descriptor import Descriptor
 from tasks.errors import SceneError, SimulationError
 from tasks.simulate.execute import GraspMode, SceneSetup, execute
 from tasks.simulate.result import SimulationResult
+from tasks.simulate.scenes import scene_setup
 
 
 def urdf_setup(urdf: Path, joints: list[str] | None) -> SceneSetup:
@@ -20,8 +22,6 @@ def urdf_setup(urdf: Path, joints: list[str] | None) -> SceneSetup:
     path = urdf.resolve()
 
     def load(client: int) -> int:
-        import pybullet as pb  # noqa: PLC0415
-
         try:
             return int(pb.loadURDF(str(path), useFixedBase=True, physicsClientId=client))
         except pb.error as err:
@@ -33,7 +33,6 @@ def urdf_setup(urdf: Path, joints: list[str] | None) -> SceneSetup:
 
 def builtin_setup(name: str, rng: np.random.Generator | None) -> SceneSetup:
     """A built-in scene (``tasks.scenes``) instance, randomised by ``rng`` (None = the nominal instance)."""
-    from tasks.simulate.scenes import scene_setup  # noqa: PLC0415 - needs tasks.scenes
 
     return scene_setup(name, rng)
 
@@ -52,9 +51,11 @@ def simulate_descriptor(
 
     With neither, the scene is the descriptor's object name when that is a built-in scene. ``rng`` picks the
     randomised instance of a built-in scene (use the seed the demonstration was synthesised with). Key frames
-    go to ``frames_dir`` as PNGs. ``SceneError`` for an unknown scene or unreadable URDF, ``SimulationError``
-    when the descriptor does not fit the scene.
+    go to ``frames_dir`` as PNGs. ``DescriptorError`` for a descriptor beyond the limits of a mechanism (an extent
+    of more than a few turns or metres, an axis that is not a unit vector), ``SceneError`` for an unknown scene or
+    unreadable URDF, ``SimulationError`` when the descriptor does not fit the scene.
     """
+    desc.to_dict()  # the schema and its limits (schemas.limits), for a descriptor built in memory too
     if scene is not None and urdf is not None:
         msg = "give a built-in scene or a URDF, not both"
         raise SimulationError(msg)

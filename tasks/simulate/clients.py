@@ -14,13 +14,14 @@ from __future__ import annotations
 
 import threading
 
+import pybullet as pb
+
 _FREE: list[int] = []
 _LOCK = threading.Lock()
 
 
 def acquire() -> int:
     """An empty pybullet DIRECT client id: a pooled one (emptied on release), or a new connection."""
-    import pybullet as pb  # noqa: PLC0415 - pybullet stays out of CLI start-up
 
     with _LOCK:
         client = _FREE.pop() if _FREE else None
@@ -29,7 +30,6 @@ def acquire() -> int:
 
 def release(client: int) -> None:
     """Empty ``client`` (``resetSimulation``: its bodies' memory is freed now) and give it back to the pool."""
-    import pybullet as pb  # noqa: PLC0415
 
     if not pb.isConnected(physicsClientId=client):
         return

@@ -36,7 +36,6 @@ _EYE6 = np.eye(6)
 
 def measured_joints(robot: rb.Robot) -> FloatArray:
     """(15,) positions of every movable joint (arm then hand), radians: what pybullet's Jacobian wants."""
-    import pybullet as pb  # noqa: PLC0415
 
     states = pb.getJointStates(robot.body, list(rb.MOVABLE_JOINTS), physicsClientId=robot.client)
     return np.array([s[0] for s in states], dtype=np.float64)
@@ -45,7 +44,6 @@ def measured_joints(robot: rb.Robot) -> FloatArray:
 def palm_jacobian(robot: rb.Robot, joints: FloatArray) -> FloatArray:
     """(6, 7) Jacobian of the palm frame's origin (rows: linear m/rad, angular rad/rad; world frame) over the
     arm's seven joints, at the (15,) movable joint positions ``joints``."""
-    import pybullet as pb  # noqa: PLC0415
 
     zeros = [0.0] * len(joints)
     lin, ang = pb.calculateJacobian(

@@ -30,7 +30,7 @@ import numpy as np
 from schemas.descriptor import Descriptor, Primitive
 from tasks.arrays import FloatArray
 from tasks.errors import SimulationError
-from tasks.grasp import barrett
+from tasks.hand import barrett
 from tasks.simulate import robot as rb
 from tasks.simulate.control import line_twist, pose_error, screw_twist
 from tasks.simulate.hand import attach, close_fingers, pregrasp_opening

@@ -4,9 +4,11 @@ constraint of the ``"constraint"`` grasp mode."""
 from __future__ import annotations
 
 import numpy as np
+import pybullet as pb
 
 from tasks.arrays import FloatArray
-from tasks.grasp import barrett
+from tasks.hand import barrett
+from tasks.hand.grips import finger_straight_rad
 from tasks.simulate import robot as rb
 from tasks.simulate.session import STEPS_PER_WAYPOINT, TIME_STEP_S, Session, link_index
 
@@ -42,9 +44,8 @@ def pregrasp_opening(planner: rb.Robot, scene_body: int, q_grasp: FloatArray, sp
     the approach, or opened further (``WIDER_OPENINGS_RAD``) when at the grasp pose (arm at ``q_grasp`` in the
     planning client) a finger would already be inside the scene there (a wide cap: the fingertips land on its rim
     and slide off outside it), unless no opening is clear."""
-    import pybullet as pb  # noqa: PLC0415
 
-    straight = rb.finger_straight_rad()
+    straight = finger_straight_rad()
     openings = [straight - OPEN_BEYOND_STRAIGHT_RAD - extra for extra in (0.0, *WIDER_OPENINGS_RAD)]
     saved = rb.arm_angles(planner)
     rb.set_arm(planner, q_grasp)

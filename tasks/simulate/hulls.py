@@ -14,6 +14,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
+from scipy.spatial import ConvexHull
 
 from tasks.arrays import FloatArray
 
@@ -29,7 +30,6 @@ def stl_vertices(data: bytes) -> FloatArray:
 
 def hull_obj_text(points: FloatArray) -> str:
     """Wavefront OBJ text of the convex hull of ``points`` (n, 3): its vertices and triangles."""
-    from scipy.spatial import ConvexHull  # noqa: PLC0415
 
     hull = ConvexHull(points)
     index = {int(v): i + 1 for i, v in enumerate(hull.vertices)}

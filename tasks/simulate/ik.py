@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
+import pybullet as pb
 
 from tasks.arrays import FloatArray
 from tasks.simulate.robot import (
@@ -63,7 +64,6 @@ def solve_ik(
     Runs pybullet's null-space IK (rest pose = seed, so the arm stays near it; at most ``iterations`` per call) up
     to ``rounds`` times, each from the previous answer, and keeps the best; the arm is left at the returned angles.
     """
-    import pybullet as pb  # noqa: PLC0415
 
     target_p = np.asarray(position, dtype=np.float64)
     target_q = np.asarray(quat_xyzw, dtype=np.float64)

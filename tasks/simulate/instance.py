@@ -26,3 +26,15 @@ def recording_meta(recording_dir: Path) -> dict[str, Any]:
     ``RecordingError`` when ``recording.json`` cannot be read."""
     meta = read_recording_info(recording_dir).get("meta")
     return dict(meta) if isinstance(meta, dict) else {}
+
+
+def descriptor_instance(
+    provenance: Mapping[str, Any], recording_meta: Mapping[str, Any] | None
+) -> tuple[str | None, int | None]:
+    """``(scene, seed)`` of the built-in scene instance a descriptor was learned on: its provenance's ``scene``
+    (``{"name", "seed"}``, written by learning), else what its recording's meta names (``recording_meta``, when the
+    recording is at hand); ``(None, None)`` when neither names one."""
+    named = provenance.get("scene")
+    if isinstance(named, Mapping):
+        return instance_from_meta({"scene": named.get("name"), "seed": named.get("seed")})
+    return instance_from_meta(recording_meta or {})

@@ -15,6 +15,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+import pybullet as pb
 
 from tasks.arrays import FloatArray
 from tasks.errors import SimulationError
@@ -130,7 +131,6 @@ def clear_of_parts(base: FloatArray, keys: Sequence[KeyPose]) -> bool:
 def _penetrates(robot: Robot, scene_body: int, base_clearance_m: float) -> bool:
     """Whether an arm link is inside the scene (beyond ``PENETRATION_TOL_M``), or the pedestal or a link up to
     the elbow (``BASE_LINKS``) is closer to it than ``base_clearance_m``."""
-    import pybullet as pb  # noqa: PLC0415
 
     for link in (-1, *ARM_JOINTS):
         limit = base_clearance_m if link in BASE_LINKS else -PENETRATION_TOL_M
@@ -162,7 +162,6 @@ def reach_keys(
     from ``seed``, default ``ARM_REST``), and whether they are comfortable (every joint ``KEY_LIMIT_MARGIN_RAD``
     inside its limits, the base links ``BASE_CLEARANCE_M`` clear of the scene); None if some key is out of reach
     or the arm is inside the scene there."""
-    import pybullet as pb  # noqa: PLC0415
 
     q = ARM_REST.copy() if seed is None else seed.copy()
     path = []
@@ -187,7 +186,6 @@ def reach_keys(
 def wrists_within_reach(robot: Robot, keys: Sequence[KeyPose]) -> bool:
     """Whether every key's wrist centre lies within ``WRIST_REACH_M`` of the shoulder at the robot's current base
     (a cheap necessary condition for ``reach_keys``)."""
-    import pybullet as pb  # noqa: PLC0415
 
     shoulder = np.array(pb.getLinkState(robot.body, 1, physicsClientId=robot.client)[4], dtype=np.float64)
     lo, hi = WRIST_REACH_M
@@ -215,7 +213,6 @@ def _sweep(
     screen: bool,
 ) -> Placement | None:
     """One pass over the candidates (``screen``: skip those failing ``_farthest_key_reached`` first)."""
-    import pybullet as pb  # noqa: PLC0415
 
     fallback: tuple[int, Placement] | None = None
     for tried, (base, quat) in enumerate(cands, start=1):
@@ -251,7 +248,6 @@ def place_base(robot: Robot, scene_body: int, keys: Sequence[KeyPose], floor_z: 
 
     ``SimulationError`` if none reaches (names the number of candidates and the path centre).
     """
-    import pybullet as pb  # noqa: PLC0415
 
     if not keys:
         msg = "no key poses to place the robot for"

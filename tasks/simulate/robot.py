@@ -1,7 +1,7 @@
 """The simulated robot: a KUKA LBR iiwa 14 (pybullet_data) carrying the project's Barrett BH8-280 hand.
 
 One URDF: the iiwa's links with absolute mesh paths, then a fixed joint from the iiwa's link 7 to the hand's
-palm, then the hand's links (``tasks.grasp.barrett``). The palm frame (the descriptor's ``grasp.wrist``; +z is the
+palm, then the hand's links (``tasks.hand.barrett``). The palm frame (the descriptor's ``grasp.wrist``; +z is the
 approach direction) sits ``FLANGE_TO_PALM_M`` along link 7's z axis, so the palm's top face is the end effector.
 Indices below are pybullet joint/link indices in the combined body.
 """
@@ -13,15 +13,18 @@ import os
 import re
 import tempfile
 from dataclasses import dataclass
-from functools import cache, cached_property
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
+import pybullet as pb
+import pybullet_data
 
 from tasks.arrays import FloatArray
-from tasks.grasp import barrett
+from tasks.hand import barrett
 from tasks.rotations import matrix_from_quat
+from tasks.simulate.hulls import with_hull_collisions
 
 ARM_JOINTS: tuple[int, ...] = (0, 1, 2, 3, 4, 5, 6)
 """pybullet joint indices of the iiwa's seven revolute joints."""
@@ -53,26 +56,7 @@ HAND_MAX_TORQUE_NM = 5.0
 """BH8-280 joint torque limit used when closing, N·m (the hand URDF's effort)."""
 
 
-@cache
-def finger_straight_rad() -> float:
-    """Proximal angle (radians) at which finger 1's proximal link points along the palm's +z (the approach).
-
-    Read off the hand's own kinematics (``barrett.link_transforms``), so the hand module may define its zero
-    anywhere (flat open hand or straight fingers)."""
-    grid = np.linspace(float(barrett.DOF_LOWER[1]), float(barrett.DOF_UPPER[1]), 245)
-    spread = barrett.dofs_from_eigengrasps(0.0, 0.0)[0]
-    best, best_cos = float(grid[0]), -2.0
-    for angle in grid:
-        tf = barrett.link_transforms(barrett.joint_positions([spread, angle, angle, angle]))
-        cos = float(tf[2][2, 2])  # z of the proximal link of finger 1 (link 1 -> index 2), palm frame
-        if cos > best_cos:
-            best, best_cos = float(angle), cos
-    return best
-
-
 def _iiwa_urdf_path() -> Path:
-    import pybullet_data  # noqa: PLC0415 - only needed when the robot is built
-
     return Path(pybullet_data.getDataPath()) / "kuka_iiwa" / "model.urdf"
 
 
@@ -98,7 +82,6 @@ def robot_urdf(cache_dir: Path | None = None, *, visuals: bool = True) -> Path:
     arm collides as the hulls of its meshes (``hulls.py``: the same geometry, loaded twice as fast).
     ``visuals=False``: the same robot without ``<visual>`` elements, for clients that never render (it loads in
     about 60 % of the time; pybullet's DIRECT mode loads visual meshes for its software renderer)."""
-    from tasks.simulate.hulls import with_hull_collisions  # noqa: PLC0415 - scipy only when the robot is built
 
     root = cache_dir or Path(os.environ.get("PBD_CACHE", Path(tempfile.gettempdir()) / "pbd-cache"))
     known = _URDF_PATHS.get((root, visuals))
@@ -140,7 +123,6 @@ class Robot:
     def palm_origin_in_com(self) -> list[float]:
         """The palm frame's origin in the palm link's centre-of-mass frame, metres (pybullet's Jacobian and
         ``getLinkState`` take link points about the centre of mass; the offset is fixed by the URDF)."""
-        import pybullet as pb  # noqa: PLC0415
 
         state = pb.getLinkState(self.body, PALM_LINK, physicsClientId=self.client)
         origin, _ = pb.invertTransform(state[2], state[3])
@@ -152,7 +134,6 @@ def load_robot(
 ) -> Robot:
     """Load the iiwa + hand with a fixed base at the given world pose; arm at ``ARM_REST``, hand open;
     ``visuals=False`` for a client that never renders."""
-    import pybullet as pb  # noqa: PLC0415 - pybullet stays out of CLI start-up
 
     pos = np.asarray(base_position, dtype=np.float64)
     quat = np.asarray(base_quat_xyzw, dtype=np.float64)
@@ -186,7 +167,6 @@ def set_arm(robot: Robot, q: npt.ArrayLike) -> None:
 
 def reset_arm(robot: Robot, q: npt.ArrayLike) -> None:
     """Reset (kinematically, at rest) the arm's seven joints to ``q`` radians in one pybullet call."""
-    import pybullet as pb  # noqa: PLC0415
 
     pb.resetJointStatesMultiDof(
         robot.body,
@@ -199,7 +179,6 @@ def reset_arm(robot: Robot, q: npt.ArrayLike) -> None:
 
 def drive_arm(robot: Robot, q: npt.ArrayLike) -> None:
     """Position-control the arm towards ``q`` radians with the iiwa's torque limits."""
-    import pybullet as pb  # noqa: PLC0415
 
     pb.setJointMotorControlArray(
         robot.body,
@@ -214,7 +193,6 @@ def drive_arm(robot: Robot, q: npt.ArrayLike) -> None:
 
 def set_hand(robot: Robot, dofs: npt.ArrayLike) -> None:
     """Reset (kinematically) the hand to (4,) DOFs (spread, f1, f2, f3) radians, distal joints coupled."""
-    import pybullet as pb  # noqa: PLC0415
 
     q = barrett.joint_positions(dofs)
     for j, angle in enumerate(q):
@@ -228,7 +206,6 @@ def drive_hand(
 ) -> None:
     """Position-control the hand towards (4,) DOFs, distal joints coupled (or at ``distal`` (3,) radians: the
     BH8's breakaway), each joint force-limited."""
-    import pybullet as pb  # noqa: PLC0415
 
     q = barrett.joint_positions(dofs, distal)
     joints = [j for j in range(9) if j != 6]
@@ -244,7 +221,6 @@ def drive_hand(
 
 def arm_angles(robot: Robot) -> FloatArray:
     """(7,) current arm joint angles, radians."""
-    import pybullet as pb  # noqa: PLC0415
 
     states = pb.getJointStates(robot.body, list(ARM_JOINTS), physicsClientId=robot.client)
     return np.array([s[0] for s in states], dtype=np.float64)
@@ -252,7 +228,6 @@ def arm_angles(robot: Robot) -> FloatArray:
 
 def hand_dofs(robot: Robot) -> FloatArray:
     """(4,) current hand DOFs (spread, f1, f2, f3) radians (spread read from finger 1's spread joint)."""
-    import pybullet as pb  # noqa: PLC0415
 
     idx = [HAND_OFFSET + j for j in (0, 1, 4, 7)]
     states = pb.getJointStates(robot.body, idx, physicsClientId=robot.client)
@@ -261,7 +236,6 @@ def hand_dofs(robot: Robot) -> FloatArray:
 
 def distal_angles(robot: Robot) -> FloatArray:
     """(3,) current distal joint angles of fingers 1, 2, 3, radians."""
-    import pybullet as pb  # noqa: PLC0415
 
     idx = [HAND_OFFSET + d for _, d in barrett.FINGER_LINKS]
     states = pb.getJointStates(robot.body, idx, physicsClientId=robot.client)
@@ -270,7 +244,6 @@ def distal_angles(robot: Robot) -> FloatArray:
 
 def palm_pose(robot: Robot) -> tuple[FloatArray, FloatArray]:
     """World pose of the palm frame: position (3,) metres and quaternion (4,) [x, y, z, w]."""
-    import pybullet as pb  # noqa: PLC0415
 
     state = pb.getLinkState(robot.body, PALM_LINK, computeForwardKinematics=True, physicsClientId=robot.client)
     return np.array(state[4], dtype=np.float64), np.array(state[5], dtype=np.float64)

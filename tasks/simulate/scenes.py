@@ -8,9 +8,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import pybullet as pb
 
 from schemas.descriptor import Descriptor
 from tasks.scenes.catalog import SCENE_NAMES, build_scene, draw_scene
+from tasks.scenes.kinematics import load_scene, truth_descriptor
 from tasks.scenes.scene import Scene
 from tasks.simulate.execute import SceneSetup
 
@@ -19,7 +21,6 @@ def scene_setup_for(scene: Scene) -> SceneSetup:
     """The set-up of one scene instance (e.g. the exact seeded instance a recording was synthesised in): its URDF
     at its world placement with its joints at ``joint_start``; the chain may drive the joints of its motions; the
     grasp holds ``grasp_link``."""
-    from tasks.scenes.kinematics import load_scene  # noqa: PLC0415 - pybullet at call time
 
     joints = tuple(dict.fromkeys(m.joint for m in scene.motions))
 
@@ -54,7 +55,6 @@ class SceneInstance:
 def placed_urdf_text(scene: Scene) -> str:
     """The scene's URDF with a root link ``world`` fixed to its base at ``base_position``/``base_orientation``, so
     that loading it at the origin (fixed base) places it."""
-    import pybullet as pb  # noqa: PLC0415
 
     root = ET.fromstring(scene.urdf)
     children = {child.get("link") for child in root.iter("child")}
@@ -74,7 +74,6 @@ def placed_urdf_text(scene: Scene) -> str:
 def scene_instances(n: int, rng: np.random.Generator, folder: Path | None = None) -> tuple[list[SceneInstance], str]:
     """``n`` randomised instances cycling through the four scenes (seeds drawn from ``rng``) with their truth
     descriptors; placed URDFs go to ``folder`` (default: a temporary folder). Returns them and a description."""
-    from tasks.scenes.kinematics import truth_descriptor  # noqa: PLC0415
 
     out_dir = folder if folder is not None else Path(tempfile.mkdtemp(prefix="pbd-scenes-"))
     out_dir.mkdir(parents=True, exist_ok=True)

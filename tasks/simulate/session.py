@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Literal
 
 import numpy as np
+import pybullet as pb
 
 from tasks.arrays import FloatArray
 from tasks.errors import SimulationError
@@ -62,7 +63,6 @@ class SceneJoint:
 
 def scene_joints(client: int, body: int, names: Sequence[str] | None, scene_name: str = "scene") -> list[SceneJoint]:
     """The scene body's revolute/prismatic joints (world axes at the current state), optionally only ``names``."""
-    import pybullet as pb  # noqa: PLC0415
 
     found: list[SceneJoint] = []
     by_name: dict[str, int] = {}
@@ -94,8 +94,6 @@ class Session:
     """The mutable state of one execution (physics and planning clients, clocks, contact counts)."""
 
     def __init__(self, setup: SceneSetup, frames_dir: Path | None) -> None:
-        import pybullet as pb  # noqa: PLC0415
-
         self.pb = pb
         self.setup = setup
         self.frames_dir = frames_dir

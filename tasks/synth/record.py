@@ -23,6 +23,7 @@ from tasks.arrays import Points
 from tasks.errors import RecordingError, SceneError
 from tasks.grasp.seed import sensor_from_palm
 from tasks.recording.writer import RecordingWriter
+from tasks.scenes.catalog import SCENE_NAMES, build_scene
 from tasks.scenes.kinematics import load_scene, palm_pose_world, truth_chain
 from tasks.scenes.scene import Scene
 from tasks.synth.demonstrator import plan_demonstration
@@ -136,7 +137,6 @@ def _remove(path: Path) -> None:
 def synthesize(scene_name: str, seed: int | None, out_path: str | Path, fmt: str = "mcap") -> Path:
     """Record built-in scene ``scene_name`` (randomised by ``seed``; None is the nominal instance) to
     ``out_path`` in ``fmt`` (mcap, bag, rosbag2) with ``PATH.truth.json``; ``SceneError`` for an unknown scene."""
-    from tasks.scenes.catalog import SCENE_NAMES, build_scene  # noqa: PLC0415
 
     check_scene_name(scene_name, SCENE_NAMES)
     check_output(Path(out_path), fmt)

@@ -7,6 +7,10 @@ import shutil
 import tempfile
 from pathlib import Path
 
+from tasks.scenes.catalog import SCENE_NAMES
+from tasks.synth.paths import truth_path
+from tasks.synth.record import synthesize
+
 SAMPLE_SEEDS: dict[str, int] = {}
 """Seed of each scene's sample recording; scenes not listed use ``DEFAULT_SAMPLE_SEED``."""
 DEFAULT_SAMPLE_SEED = 1
@@ -22,9 +26,6 @@ def sample_seed(scene: str) -> int:
 def ensure_sample_recordings(folder: Path) -> list[Path]:
     """Paths of the sample recordings of every built-in scene under ``folder``, writing those that are missing
     (a recording whose truth file is missing gets it back from an identical re-run)."""
-    from tasks.scenes.catalog import SCENE_NAMES  # noqa: PLC0415
-    from tasks.synth.paths import truth_path  # noqa: PLC0415
-    from tasks.synth.record import synthesize  # noqa: PLC0415
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)

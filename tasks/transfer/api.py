@@ -18,6 +18,7 @@ from schemas.descriptor import Descriptor, Grasp, ObjectRef
 from tasks.arrays import Points
 from tasks.code_version import code_version
 from tasks.errors import GraspError, TransferError
+from tasks.grasp import api as grasp_api
 from tasks.transfer.axes import place_axes, placed_spread
 from tasks.transfer.carry import carry_grasp, carry_primitive, focus_points, grip_points, keep_standoff
 from tasks.transfer.clouds import check_model
@@ -66,7 +67,6 @@ def _finite(value: float) -> float | None:
 def _replan(grasp: Grasp, target: Points, rng: np.random.Generator, *, strict: bool, warnings: list[str]) -> Grasp:
     """Re-plan the carried grasp on the target model, seeded by the carried wrist pose; the carried grasp is kept
     (with a warning, or ``TransferError`` when ``strict``) when planning fails or finds no force closure."""
-    from tasks.grasp import api as grasp_api  # noqa: PLC0415 - the grasp stage loads pybullet
 
     seed = np.asarray(grasp.wrist_position)
     try:

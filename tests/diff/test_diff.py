@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
+from flows.cli import main
 from schemas.descriptor import Descriptor, Grasp, ObjectRef, Primitive
-from tasks.cli import main
 from tasks.diff.core import diff_descriptors, format_diff
 from tasks.store import Store
 

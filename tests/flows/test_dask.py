@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 from distributed import LocalCluster
 
-from tasks.cli import main
+from flows.cli import main
 from tasks.store import Store
 from tests.flows.recordings import write_door_recording
 
@@ -43,7 +43,8 @@ def test_archive_runs_on_a_dask_cluster(
     summary = json.loads(capsys.readouterr().out)
     assert code == 0, summary
     assert summary["counts"]["new"] == 2
-    extents = [Store(store).load(f"{n}@v1").chain[0].extent for n in ("door-1", "door-2")]
+    extents = [Store(store).load(f"open-door--{n}@v1").chain[0].extent for n in ("door-1", "door-2")]
     assert extents == pytest.approx([1.0, 1.3], abs=0.05)
     ran_on_dask = set(dask_cluster.scheduler.task_prefixes)
-    assert {"ingest_task", "learn_task", "simulate_task", "diff_task"} <= ran_on_dask, ran_on_dask
+    stages = {"ingest_task", "segment_task", "fit_task", "grasp_task", "simulate_task", "diff_task"}
+    assert stages <= ran_on_dask, ran_on_dask

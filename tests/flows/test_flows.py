@@ -14,9 +14,10 @@ import pytest
 from flows.caching import results_dir
 from flows.process_recording import process_recording
 from flows.reprocess_archive import reprocess_archive
-from tasks.ingest import task as ingest_module
-from tasks.learn import task as learn_module
-from tasks.simulate import task as simulate_module
+from flows.stages import ingest as ingest_module
+from flows.stages import learn as learn_module
+from flows.stages import simulate as simulate_module
+from flows.summary import summary_of
 from tasks.store import Store
 from tasks.synth.record import synthesize
 from tests.flows.recordings import write_door_recording
@@ -35,43 +36,63 @@ def archive(tmp_path: Path) -> Path:
     return folder
 
 
+STAGES = ("ingest_recording", "segment_recording", "fit_segments", "plan_recording_grasp", "simulate_descriptor")
+"""The stage functions the task wrappers call, in pipeline order."""
+
+
+def runs(calls: CallCounter) -> list[int]:
+    """How often each of ``STAGES`` ran."""
+    return [calls[s] for s in STAGES]
+
+
 @pytest.fixture
 def calls(monkeypatch: pytest.MonkeyPatch) -> CallCounter:
     """Counts of real stage executions inside the task wrappers."""
     counter: CallCounter = Counter()
     count_calls(monkeypatch, ingest_module, "ingest_recording", counter)
-    count_calls(monkeypatch, learn_module, "learn_descriptor", counter)
+    for stage in STAGES[1:4]:
+        count_calls(monkeypatch, learn_module, stage, counter)
     count_calls(monkeypatch, simulate_module, "simulate_descriptor", counter)
     return counter
 
 
 @pytest.mark.slow
-def test_unchanged_archive_does_no_stage_work_and_a_parameter_reruns_learning_only(
+def test_unchanged_archive_does_no_stage_work_and_a_change_reruns_what_follows_it(
     prefect_harness: None, archive: Path, tmp_path: Path, calls: CallCounter
 ) -> None:
     store = tmp_path / "store"
     first = reprocess_archive(str(archive), store=str(store), workers=2)
     # the doors' recordings name no scene instance: not simulated; the synthesised sliding door is
-    assert dict(calls) == {"ingest_recording": 3, "learn_descriptor": 3, "simulate_descriptor": 1}
+    assert runs(calls) == [3, 3, 3, 3, 1]
     assert first["counts"] == {"new": 3, "changed": 0, "unchanged": 0, "failed": 0}
-    assert [e["descriptor"] for e in first["entries"]] == ["door-a@v1", "nested-door-b@v1", "slide@v1"]
+    # both doors are open-door by their meta: within one run each gets its path
+    names = ["open-door--door-a@v1", "open-door--nested-door-b@v1", "slide-sliding-door@v1"]
+    assert [e["descriptor"] for e in first["entries"]] == names
     assert [e["simulation_success"] for e in first["entries"]] == [None, None, True]
     assert first["report"] is not None and Path(first["report"]).is_file()
+    figures = sorted((store / "reports" / "figures").iterdir())
 
     again = reprocess_archive(str(archive), store=str(store), workers=2)
-    assert dict(calls) == {"ingest_recording": 3, "learn_descriptor": 3, "simulate_descriptor": 1}  # all cached
+    assert runs(calls) == [3, 3, 3, 3, 1]  # all cached
     assert again["counts"] == {"new": 0, "changed": 0, "unchanged": 3, "failed": 0}
     assert Path(again["report"] or "").parent != Path(first["report"]).parent  # a report per run
+    assert sorted((store / "reports" / "figures").iterdir()) == figures  # no figure drawn again
 
     changed = reprocess_archive(str(archive), store=str(store), params={"min_rotation_rad": 1.0}, workers=1)
     # ingest cached, learning re-ran, only the descriptor that changed is simulated again
-    assert dict(calls) == {"ingest_recording": 3, "learn_descriptor": 6, "simulate_descriptor": 1}
+    assert runs(calls) == [3, 6, 6, 6, 1]
     statuses = {Path(e["source"]).name: e["status"] for e in changed["entries"]}
     # the 0.9 rad door is now below the smallest rotation kept: its chain changes, the 1.2 rad one does not
     assert statuses == {"door-a.mcap": "unchanged", "door-b": "changed", "slide.mcap": "unchanged"}
     diff = next(e["diff"] for e in changed["entries"] if e["status"] == "changed")
     assert any(line.startswith("  removed primitive 0: rotation") for line in diff)
-    assert [v.version for v in Store(store).versions("nested-door-b")] == [1, 2]
+    assert [v.version for v in Store(store).versions("open-door--nested-door-b")] == [1, 2]
+
+    regrasped = reprocess_archive(
+        str(archive), store=str(store), params={"min_rotation_rad": 1.0}, grasp={"steps": 200}, workers=1
+    )
+    assert runs(calls)[:4] == [3, 6, 6, 9]  # segment and fit cached: the grasp and what follows re-ran
+    assert regrasped["counts"]["failed"] == 0
 
 
 def test_process_recording_names_by_meta_and_leaves_artifacts(prefect_harness: None, tmp_path: Path) -> None:
@@ -91,18 +112,26 @@ def test_process_recording_names_by_meta_and_leaves_artifacts(prefect_harness: N
         md = client.read_latest_artifacts()
     by_key = {a.key: a for a in md}
     assert "open-door@v1" in str(by_key["pbd-run-summary"].data)
+    assert "open-door@v1" in str(by_key["pbd-run-table"].data)
     report = Path(summary["report"] or "")
     assert report.is_file()
+    figures = store / "reports" / "figures"
     if desc.grasp is not None:
-        assert (report.parent / "open-door-v1-grasp.png").is_file()
-    assert (report.parent / "open-door-v1-axes.mcap").is_file()
+        assert len(list(figures.glob("*/descriptor-grasp.png"))) == 1
+    assert len(list(figures.glob("*/descriptor-axes.mcap"))) == 1
+    assert "../figures/" in report.read_text()
     assert f"({report.resolve().as_uri()})" in str(by_key["pbd-report"].data)
 
 
-def test_an_unknown_parameter_fails_the_recording_not_the_run(
+def test_an_unknown_parameter_fails_every_recording_and_the_run(
     prefect_harness: None, archive: Path, tmp_path: Path
 ) -> None:
-    summary = reprocess_archive(str(archive), store=str(tmp_path / "store"), params={"no_such": 1}, report=False)
+    state = reprocess_archive(
+        str(archive), store=str(tmp_path / "store"), params={"no_such": 1}, report=False, return_state=True
+    )
+    assert state.is_failed()
+    assert state.message is not None and state.message.startswith("3 of 3 recordings failed")
+    summary = summary_of(state)
     assert summary["counts"]["failed"] == 3
     assert all("unknown learning parameter(s) no_such" in (e["error"] or "") for e in summary["entries"])
 
@@ -114,7 +143,7 @@ def test_cache_survives_a_new_process_and_prefect_home(prefect_harness: None, ar
     before = {p.name: p.stat().st_mtime_ns for p in results_dir(store).iterdir()}
     env = {k: v for k, v in os.environ.items() if not k.startswith("PREFECT_")}
     env["PREFECT_HOME"] = str(tmp_path / "another-prefect-home")
-    cmd = [sys.executable, "-m", "tasks.cli", "archive", str(archive), "--store", str(store), "--json", "--no-report"]
+    cmd = [sys.executable, "-m", "flows.cli", "archive", str(archive), "--store", str(store), "--json", "--no-report"]
     out = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=240, check=False)
     assert out.returncode == 0, out.stderr[-2000:]
     summary = json.loads(out.stdout)

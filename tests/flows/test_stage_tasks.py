@@ -12,7 +12,7 @@ import pytest
 from prefect import flow
 
 from flows.caching import on_store, results_dir
-from tasks.ingest import task as ingest_module
+from flows.stages import ingest as ingest_module
 from tasks.report.refs import RecordingRef
 from tests.flows.recordings import write_door_recording
 

@@ -7,9 +7,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from flows.cli import main
 from flows.transfer_descriptor import transfer_descriptor_flow
 from schemas.descriptor import Descriptor, ObjectRef, Primitive
-from tasks.cli import main
 from tasks.store import Store
 from tasks.synth.record import synthesize
 

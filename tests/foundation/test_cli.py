@@ -6,7 +6,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from tasks.cli import COMMANDS, build_parser
+from flows.cli import COMMANDS, build_parser
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -20,6 +20,7 @@ def test_every_documented_command_is_there() -> None:
         "transfer",
         "simulate",
         "diff",
+        "ls",
         "archive",
         "serve",
     }
@@ -42,7 +43,7 @@ def _minimal_args(name: str) -> list[str]:
 
 def test_cli_start_up_is_light() -> None:
     code = (
-        "import sys; from tasks.cli import build_parser; build_parser();"
+        "import sys; from flows.cli import build_parser; build_parser();"
         "heavy = [m for m in ('prefect', 'open3d', 'pybullet', 'matplotlib') if m in sys.modules];"
         "print(','.join(heavy))"
     )
@@ -52,13 +53,22 @@ def test_cli_start_up_is_light() -> None:
 
 def test_an_error_after_pybullet_loaded_is_one_stderr_line(tmp_path: Path) -> None:
     """pybullet prints its build time on stderr when imported; commands that load it import it quietly."""
-    from tasks.simulate.objects import DrawerSpec
+    from tests.simulate.objects import DrawerSpec
 
     desc = tmp_path / "door.json"
     desc.write_text(DrawerSpec().descriptor(0.3).to_json())  # a translation: the bottle has no slide
-    pbd = Path(sys.executable).with_name("pbd")
     out = subprocess.run(
-        [str(pbd), "simulate", str(desc), "--scene", "bottle", "--store", str(tmp_path / "store")],
+        [
+            sys.executable,
+            "-m",
+            "flows.cli",
+            "simulate",
+            str(desc),
+            "--scene",
+            "bottle",
+            "--store",
+            str(tmp_path / "store"),
+        ],
         capture_output=True,
         text=True,
         timeout=120,

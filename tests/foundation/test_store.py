@@ -80,3 +80,22 @@ def test_concurrent_writers_get_distinct_versions(tmp_path: Path) -> None:
     assert len({e.id for e in entries}) == 20
     for e in entries:
         assert store.load(f"open-microwave@v{e.version}").id == e.id
+
+
+def test_unreadable_model_and_non_files_are_one_error(store: Store, tmp_path: Path) -> None:
+    sha, path = store.put_model(np.zeros((4, 3)))
+    path.unlink()
+    path.write_bytes(b"not parquet")
+    with pytest.raises(StoreError, match=r"\.parquet: unreadable object model \(ArrowInvalid\)"):
+        store.load_model(sha)
+    (tmp_path / "folder.json").mkdir()
+    with pytest.raises(DescriptorError, match=r"folder.json: not a regular file \(a folder, a FIFO or a device\)"):
+        store.load(str(tmp_path / "folder.json"))
+
+
+def test_a_failed_write_leaves_no_temporary_file(tmp_path: Path) -> None:
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    with pytest.raises(StoreError, match=r"/file: cannot write: File exists$"):
+        write_bytes_atomic(blocker / "a.json", b"1")
+    assert [p.name for p in tmp_path.iterdir()] == ["file"]

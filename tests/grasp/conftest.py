@@ -7,7 +7,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from tasks.arrays import Points
-from tasks.grasp.surface_sampling import sample_box_surface, sample_cylinder_surface
+from tests.grasp.surface_sampling import sample_box_surface, sample_cylinder_surface
 
 HANDLE_CENTER = np.array([0.5, 0.0, 0.3])
 """A cylinder of radius 20 mm and length 160 mm lying along world x, centred here (metres)."""

@@ -7,10 +7,10 @@ import numpy as np
 import pybullet as pb
 from scipy.spatial.transform import Rotation
 
-from tasks.grasp import barrett
 from tasks.grasp.object_model import ObjectModel, build_object_model, load_object
 from tasks.grasp.planner import GraspCandidate, PlannerParams, evaluate_pose
-from tasks.grasp.surface_sampling import sample_cylinder_surface
+from tasks.hand import barrett
+from tests.grasp.surface_sampling import sample_cylinder_surface
 
 CENTRE = np.array([0.5, 0.0, 0.3])
 RADIUS = 0.03

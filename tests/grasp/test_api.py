@@ -13,9 +13,9 @@ from tasks.arrays import Points
 from tasks.errors import GraspError
 from tasks.grasp.api import part_near, plan_grasp, plan_grasp_for_recording
 from tasks.grasp.seed import GRASPIT_TRACKER_OFFSET, PalmOffset, palm_from_sensor, sensor_from_palm, wrist_pose_at
-from tasks.grasp.surface_sampling import sample_cylinder_surface
 from tasks.recording.load import PoseTrack
 from tasks.store import Store
+from tests.grasp.surface_sampling import sample_cylinder_surface
 
 from .conftest import HANDLE_CENTER, PALM_DOWN
 

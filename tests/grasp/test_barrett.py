@@ -8,7 +8,7 @@ import numpy as np
 import pybullet as pb
 import pytest
 
-from tasks.grasp import barrett
+from tasks.hand import barrett
 
 
 def test_eigengrasp_origin_and_directions() -> None:

@@ -14,8 +14,8 @@ from tasks.arrays import Points
 from tasks.grasp.api import planned_on
 from tasks.grasp.cap import find_cap
 from tasks.grasp.object_model import build_object_model
-from tasks.grasp.surface_sampling import sample_box_surface, sample_cylinder_surface
 from tests.grasp.bench_object import plan_bench_scene
+from tests.grasp.surface_sampling import sample_box_surface, sample_cylinder_surface
 
 CAP_RADIUS_M = 0.020
 CAP_HEIGHT_M = 0.022

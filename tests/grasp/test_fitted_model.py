@@ -9,10 +9,11 @@ from scipy.spatial.transform import Rotation
 
 from tasks.grasp.api import plan_grasp
 from tasks.grasp.hold_check import hold_check
-from tasks.grasp.object_model import PrimitiveShape, build_object_model
+from tasks.grasp.object_model import build_object_model
+from tasks.grasp.primitive_shape import PrimitiveShape
 from tasks.grasp.shake import shake_test
-from tasks.grasp.surface_sampling import sample_box_surface, sample_cylinder_surface
 from tests.grasp.cases.grasp import handle_on_plate
+from tests.grasp.surface_sampling import sample_box_surface, sample_cylinder_surface
 
 CENTRE = np.array([0.5, 0.0, 0.4])
 

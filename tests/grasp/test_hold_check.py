@@ -12,7 +12,7 @@ from schemas.descriptor import Grasp
 from tasks.grasp.hold_check import CHECK_LENGTH_S, PRIMITIVE_CHECK_CYCLES, check_length_s, hold_check
 from tasks.grasp.object_model import build_object_model
 from tasks.grasp.shake import shake_test
-from tasks.grasp.surface_sampling import sample_box_surface
+from tests.grasp.surface_sampling import sample_box_surface
 
 from .conftest import PALM_DOWN
 

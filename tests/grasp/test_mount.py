@@ -11,7 +11,7 @@ from tasks.arrays import Points
 from tasks.grasp.mount import find_mount
 from tasks.grasp.object_model import ObjectModel, build_object_model, labelled_model
 from tasks.grasp.shake import shake_test
-from tasks.grasp.surface_sampling import sample_box_surface, sample_cylinder_surface
+from tests.grasp.surface_sampling import sample_box_surface, sample_cylinder_surface
 
 from .conftest import PALM_DOWN
 

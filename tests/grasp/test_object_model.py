@@ -15,7 +15,7 @@ from tasks.grasp.object_model import (
     load_object,
     voxel_downsample,
 )
-from tasks.grasp.surface_sampling import sample_box_surface
+from tests.grasp.surface_sampling import sample_box_surface
 
 from .conftest import PALM_DOWN
 

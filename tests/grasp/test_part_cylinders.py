@@ -15,8 +15,8 @@ from tasks.grasp.object_model import (
     voxel_downsample,
 )
 from tasks.grasp.part_cylinders import find_cylinder, prism_vertices
-from tasks.grasp.surface_sampling import sample_box_surface
 from tests.grasp.cases.grasp import handle_on_plate
+from tests.grasp.surface_sampling import sample_box_surface
 
 PALM_OFFSET = np.array([0.0, -0.06, 0.0])
 """The demonstrated palm 60 mm in front (-y) of a handle's bar, looking along +y."""

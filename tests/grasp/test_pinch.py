@@ -26,10 +26,10 @@ from tasks.grasp.pinch import (
 )
 from tasks.grasp.planner import GraspCandidate, PlannerParams
 from tasks.grasp.shake import Motion, ShakeParams, shake_test
-from tasks.grasp.surface_sampling import sample_box_surface, sample_cylinder_surface
 from tasks.scenes.surface import WorldShape
 from tests.grasp.bench_object import plan_bench_object
 from tests.grasp.cases.exact import exact_model
+from tests.grasp.surface_sampling import sample_box_surface, sample_cylinder_surface
 
 BAR_CENTRE = np.array([0.5, 0.0, 0.5])
 BAR_RADIUS_M = 0.010

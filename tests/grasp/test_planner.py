@@ -9,11 +9,11 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from tasks.arrays import Points
-from tasks.grasp import barrett
 from tasks.grasp.anneal import ILLEGAL_ENERGY, Schedule, ingber_draw
 from tasks.grasp.api import plan_grasp
 from tasks.grasp.object_model import build_object_model
 from tasks.grasp.planner import contact_energy
+from tasks.hand import barrett
 
 from .conftest import HANDLE_CENTER, PALM_DOWN
 

@@ -11,7 +11,7 @@ from scipy.spatial.transform import Rotation
 
 from tasks.arrays import Points
 from tasks.errors import GraspError
-from tasks.grasp.object_model import PrimitiveShape, estimate_normals, voxel_downsample
+from tasks.grasp.object_model import estimate_normals, voxel_downsample
 from tasks.grasp.primitive_fit import (
     RMS_FRACTION,
     TOLERANCE_M,
@@ -22,7 +22,8 @@ from tasks.grasp.primitive_fit import (
     surface_distance,
     tolerance,
 )
-from tasks.grasp.surface_sampling import sample_box_surface, sample_cylinder_surface
+from tasks.grasp.primitive_shape import PrimitiveShape
+from tests.grasp.surface_sampling import sample_box_surface, sample_cylinder_surface
 
 NOISE_M = 0.0003
 """Gaussian noise added to every sampled coordinate, metres."""

@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from tasks.grasp import barrett
 from tasks.grasp.api import part_near, plan_on_model
 from tasks.grasp.candidate_grasp import grasp_from_candidate
 from tasks.grasp.object_model import build_object_model
 from tasks.grasp.planner import LIMIT_TOL_M
 from tasks.grasp.seed import stillest_time_ns
+from tasks.hand import barrett
 from tasks.recording.load import PoseTrack
 from tasks.scenes.catalog import build_scene
 from tasks.scenes.kinematics import truth_descriptor

@@ -10,7 +10,7 @@ import pytest
 from schemas.descriptor import Grasp
 from tasks.grasp.object_model import ObjectModel, build_object_model
 from tasks.grasp.shake import Motion, ShakeParams, shake_test
-from tasks.grasp.surface_sampling import sample_box_surface
+from tests.grasp.surface_sampling import sample_box_surface
 
 from .conftest import PALM_DOWN
 

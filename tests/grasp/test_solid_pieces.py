@@ -9,7 +9,7 @@ from scipy.spatial import ConvexHull, Delaunay
 
 from tasks.arrays import Points
 from tasks.grasp.object_model import convex_parts, solid_pieces
-from tasks.grasp.surface_sampling import sample_box_surface
+from tests.grasp.surface_sampling import sample_box_surface
 
 from .bench_object import plan_bench_scene
 

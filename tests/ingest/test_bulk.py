@@ -14,10 +14,11 @@ import pytest
 
 from tasks.errors import RecordingError
 from tasks.ingest.api import ingest_recording
+from tasks.ingest.batch import Batch
 from tasks.ingest.bulk import bulk_decode
-from tasks.ingest.containers import RawTopic, read_recording
+from tasks.ingest.containers import read_recording
 from tasks.ingest.decode import decode_topic
-from tasks.ingest.mcap_stream import Batch
+from tasks.ingest.raw import RawTopic
 from tasks.recording.load import load_recording
 from tasks.store import Store
 from tests.conftest import REAL

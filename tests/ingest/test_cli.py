@@ -11,11 +11,12 @@ import numpy as np
 
 from tests.conftest import LOGS, REPO
 
-PBD = REPO / ".venv" / "bin" / "pbd"
+PBD = (sys.executable, "-m", "flows.cli")
+"""The pbd command line of this checkout, run as a module by the interpreter running the tests."""
 
 
 def _run(*args: str | Path) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([str(PBD), *map(str, args)], capture_output=True, text=True, check=False, timeout=120)
+    return subprocess.run([*PBD, *map(str, args)], capture_output=True, text=True, check=False, timeout=120)
 
 
 def _recording(path: Path) -> Path:
@@ -84,7 +85,7 @@ def test_startup_imports_nothing_heavy(tmp_path: Path) -> None:
     rec = _recording(tmp_path / "demo.mcap")
     code = (
         "import sys\n"
-        "from tasks.cli import main\n"
+        "from flows.cli import main\n"
         f"code = main(['ingest', {str(rec)!r}, '--store', {str(tmp_path / 'store')!r}])\n"
         "heavy = sorted(m for m in ('prefect', 'open3d', 'pybullet', 'matplotlib') if m in sys.modules)\n"
         "print(code, heavy)\n"

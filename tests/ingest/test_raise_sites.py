@@ -15,9 +15,10 @@ import yaml
 
 from tasks.errors import RecordingError, TruncatedRecordingError
 from tasks.ingest.api import ingest_recording
-from tasks.ingest.containers import RawTopic, read_recording
+from tasks.ingest.containers import read_recording
 from tasks.ingest.extract import Extracted, extract_topic
 from tasks.ingest.mcap_stream import MAGIC, Batch
+from tasks.ingest.raw import RawTopic
 from tasks.store import Store
 
 # -- MCAP records by hand (https://mcap.dev/spec) -------------------------------------------------------
@@ -205,8 +206,9 @@ def test_bag_version_and_magic(tmp_path: Path) -> None:
         read_recording(_bag(tmp_path, version=b"1.2"))
     from tasks.ingest.bag_stream import read_bag
 
+    (tmp_path / "x.bag").write_bytes(b"nope")
     with pytest.raises(RecordingError, match="not a recording"):
-        read_bag(b"nope", "x.bag")
+        read_bag(tmp_path / "x.bag")
 
 
 # -- rosbag2 folders ------------------------------------------------------------------------------------

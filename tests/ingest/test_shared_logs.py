@@ -20,7 +20,8 @@ import yaml
 
 from tasks.errors import RecordingError
 from tasks.ingest.api import ingest_recording
-from tasks.ingest.containers import normalize_type, read_recording
+from tasks.ingest.containers import read_recording
+from tasks.ingest.selection import normalize_type
 from tasks.store import Store
 from tests.conftest import LOGS
 

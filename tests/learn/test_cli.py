@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tasks.cli import main
+from flows.cli import main
 from tasks.store import Store
 from tests.learn.synthetic import make_demo, write_recording
 

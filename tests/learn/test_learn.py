@@ -142,8 +142,28 @@ def test_all_nan_markers_are_an_error_and_one_nan_marker_a_warning() -> None:
     markers["/mocap/drawer_0"] = dataclasses.replace(markers["/mocap/drawer_0"], points=pts)
     result = learn_chain(dataclasses.replace(rec, markers=markers), LearnParams(), RNG(0))
     assert [p.kind for p in result.chain] == ["translation"]
-    assert "marker /mocap/lost: every sample is NaN; left out" in result.warnings
+    assert "marker /mocap/lost: every sample is NaN, infinite or beyond 1000 m; left out" in result.warnings
     assert "marker /mocap/drawer_0: 10 NaN samples dropped" in result.warnings
+
+
+def test_infinite_and_absurd_samples_are_dropped_and_backward_stamps_warned() -> None:
+    demo = make_demo("drawer", RNG(9), hz=50.0)
+    rec = to_recording(demo)
+    markers = dict(rec.markers)
+    track = markers["/mocap/drawer_0"]
+    pts = track.points.copy()
+    pts[100:103] = np.inf
+    pts[200:202] = 1e300  # a corrupt sample, not a motion
+    stamps = track.stamps_ns.copy()
+    stamps[[250, 251]] = stamps[[251, 250]]  # two samples out of order
+    markers["/mocap/drawer_0"] = dataclasses.replace(track, points=pts, stamps_ns=stamps)
+    result = learn_chain(dataclasses.replace(rec, markers=markers), LearnParams(), RNG(0))
+    assert [p.kind for p in result.chain] == ["translation"]
+    assert "marker /mocap/drawer_0: 3 infinite samples, 2 samples beyond 1000 m dropped" in result.warnings
+    assert "marker /mocap/drawer_0: 1 time stamps go backwards; samples sorted by time" in result.warnings
+    huge = np.full((50, 3), 1e300)
+    with pytest.raises(FitError, match="marker /m/a: every sample is NaN, infinite or beyond 1000 m"):
+        learn_chain(_rec({"/m/a": _track("/m/a", huge)}), LearnParams(), RNG(0))
 
 
 def test_too_few_samples_and_too_short_recordings_are_errors() -> None:

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from tasks.cli import main as pbd
+from flows.cli import main as pbd
 from tasks.fit.geometry import angle_between_axes
 from tasks.learn.api import learn_chain
 from tasks.learn.params import LearnParams

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import io
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -61,12 +62,14 @@ def test_report_has_every_plot_and_the_axes_mcap(store: Store, tmp_path: Path) -
     paths = write_report(store, "run-1", "test run", [first, second])
     assert paths.html == store.reports_dir / "run-1" / "report.html"
     page = paths.html.read_text()
-    for stem in ("open-door-v1", "open-door-v2"):
-        for kind in ("trajectories", "timeline", "models", "grasp", "simulation", "joint-trace"):
-            png = paths.folder / f"{stem}-{kind}.png"
-            assert png.read_bytes()[:8] == PNG_MAGIC
-            assert f"src='{png.name}'" in page
-    assert (paths.folder / "open-door-v2-diff.png").read_bytes()[:8] == PNG_MAGIC
+    images = re.findall(r"<img src='([^']+)'>", page)
+    names = sorted(Path(src).name for src in images)
+    kinds = ("trajectories", "timeline", "models", "grasp")
+    assert names == sorted([*(f"descriptor-{k}.png" for k in kinds for _ in (1, 2)), "diff-diff.png",
+                            *(f"simulation-{k}.png" for k in ("extent", "joint-trace") for _ in (1, 2))])  # fmt: skip
+    for src in images:
+        assert src.startswith("../figures/")
+        assert (paths.folder / src).read_bytes()[:8] == PNG_MAGIC
     assert "open-door@v1 → open-door@v2" in paths.markdown
     assert "rotation 0-&gt;0: axis angle 0.500 deg" in page
     assert "1 new, 1 changed, 0 unchanged, 0 failed" in paths.markdown
@@ -83,6 +86,18 @@ def test_report_has_every_plot_and_the_axes_mcap(store: Store, tmp_path: Path) -
     assert not list(store.tmp_dir.iterdir())  # the staging folder was renamed into place
 
 
+def test_a_second_report_draws_no_figure_again(store: Store, tmp_path: Path) -> None:
+    """Each version's figures are drawn once: another run's report of the same entries links the same files."""
+    entry = _entry(store, tmp_path, 1.2)
+    write_report(store, "run-a", "first", [entry])
+    figures = store.reports_dir / "figures"
+    drawn = {p: p.stat().st_mtime_ns for p in figures.rglob("*.png")}
+    second = write_report(store, "run-b", "again", [entry])
+    assert {p: p.stat().st_mtime_ns for p in figures.rglob("*.png")} == drawn
+    assert len(drawn) == 6
+    assert all((second.folder / src).is_file() for src in re.findall(r"<img src='([^']+)'>", second.html.read_text()))
+
+
 def test_report_refuses_to_overwrite_a_run(store: Store, tmp_path: Path) -> None:
     entry = _entry(store, tmp_path, 1.2)
     write_report(store, "run-2", "first", [entry])
@@ -96,3 +111,18 @@ def test_report_lists_a_failed_recording(store: Store) -> None:
     assert "failed: ingest: truncated at byte 10" in paths.html.read_text()
     md = summary_markdown("with a failure", [failed], None)
     assert "| broken.mcap | - | - | failed: ingest: truncated at byte 10 | - | - |" in md
+    assert "- /archive/broken.mcap: ingest: truncated at byte 10" in md
+
+
+def test_summary_markdown_escapes_file_names_and_errors() -> None:
+    hostile = EntryResult(
+        source="/archive/x | y ![img](evil.png) <b>_z_.mcap",
+        error="bad `code` [link](u)\n| forged | row |",
+    )
+    md = summary_markdown("hostile names", [hostile], None)
+    row = next(line for line in md.splitlines() if line.startswith("| x"))
+    assert row == (
+        r"| x \| y \!\[img\](evil.png) \<b\>\_z\_.mcap | - | - | failed: bad \`code\` \[link\](u) \| forged \| "
+        r"row \| | - | - |"
+    )
+    assert md.count("\n| ") == 3  # header, rule and this row: the line break in the error made no row of its own

@@ -19,7 +19,7 @@ from tasks.scenes.kinematics import (
     truth_descriptor,
 )
 from tasks.scenes.scene import Marker, Motion, Scene
-from tasks.simulate.objects import LeverDoorSpec
+from tests.simulate.objects import LeverDoorSpec
 
 
 def lever_door(yaw_rad: float = 0.0, lever_end: float = 0.5, door_end: float = 1.0) -> Scene:

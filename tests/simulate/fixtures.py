@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from schemas.descriptor import Descriptor
-from tasks.simulate.objects import DoorSpec, write_urdf
+from tests.simulate.objects import DoorSpec, write_urdf
 
 
 def write_door(folder: Path) -> Path:

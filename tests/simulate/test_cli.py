@@ -2,14 +2,18 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import re
 from pathlib import Path
 
 import pytest
 
-from tasks.cli import main
+from flows.cli import main
+from tasks.errors import DescriptorError
+from tasks.simulate.api import simulate_descriptor
 from tests.simulate.fixtures import door_descriptor, write_door
+from tests.simulate.objects import DrawerSpec
 
 
 def test_json_output_shape(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -80,3 +84,10 @@ def test_bad_input_exits_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
     assert "--joints needs --urdf" in capsys.readouterr().err
     assert main(["simulate", str(tmp_path / "nope.json"), "--urdf", str(urdf)]) == 2
     assert "nope.json" in capsys.readouterr().err
+
+
+def test_a_descriptor_beyond_the_limits_is_refused_before_simulating() -> None:
+    desc = DrawerSpec().descriptor(0.3)
+    far = dataclasses.replace(desc, chain=(dataclasses.replace(desc.chain[0], extent=1e6),))
+    with pytest.raises(DescriptorError, match=r"chain/0/extent: 1e\+06 m beyond 5 m"):
+        simulate_descriptor(far, scene="sliding-door")

@@ -10,9 +10,9 @@ import pytest
 from schemas.descriptor import Primitive
 from tasks.errors import SceneError, SimulationError
 from tasks.simulate.api import simulate_descriptor
-from tasks.simulate.objects import CapSpec, DrawerSpec, write_urdf
 from tasks.simulate.result import SUCCESS_FRACTION
 from tests.simulate.fixtures import door_descriptor, write_door
+from tests.simulate.objects import CapSpec, DrawerSpec, write_urdf
 
 
 @pytest.mark.parametrize("mode", ["constraint", "friction"])

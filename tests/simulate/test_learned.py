@@ -12,10 +12,10 @@ from tasks.learn.api import learn_descriptor
 from tasks.learn.params import LearnParams
 from tasks.recording.load import load_recording
 from tasks.simulate.api import simulate_descriptor
-from tasks.simulate.demo_recording import demo_tracks, write_demo
 from tasks.simulate.matching import axis_angle_rad, point_line_distance_m
-from tasks.simulate.objects import DoorSpec, write_urdf
 from tasks.store import Store
+from tests.simulate.demo_recording import demo_tracks, write_demo
+from tests.simulate.objects import DoorSpec, write_urdf
 
 
 def test_demo_markers_ride_on_the_door(tmp_path: Path) -> None:

@@ -7,8 +7,9 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from tasks.arrays import Points
+from tasks.hand.grips import HANDLE_STANDOFF, PALM_TO_BAR
 from tasks.scenes.scene import HAND_LINK, Marker, Motion, Scene
-from tasks.simulate.objects import HANDLE_STANDOFF, PALM_TO_BAR, DoorSpec, DrawerSpec
+from tests.simulate.objects import DoorSpec, DrawerSpec
 
 PALM_QUAT = tuple(float(v) for v in Rotation.from_matrix(np.column_stack([[0, 0, 1], [0, -1, 0], [1, 0, 0]])).as_quat())
 

@@ -4,17 +4,17 @@ from __future__ import annotations
 
 import json
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
 
-from tests.conftest import REPO
-
-PBD = REPO / ".venv" / "bin" / "pbd"
+PBD = (sys.executable, "-m", "flows.cli")
+"""The pbd command line of this checkout, run as a module by the interpreter running the tests."""
 
 
 def _pbd(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([str(PBD), *args], capture_output=True, text=True, check=False, timeout=120)
+    return subprocess.run([*PBD, *args], capture_output=True, text=True, check=False, timeout=120)
 
 
 def test_synth_writes_a_bag_and_its_truth(tmp_path: Path) -> None:

@@ -7,7 +7,7 @@ import pytest
 
 from schemas.descriptor import Descriptor, Grasp, ObjectRef, Primitive
 from tasks.store import Store
-from tasks.transfer import shapes
+from tests.transfer import shapes
 
 
 @pytest.fixture(scope="session")

@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 from schemas.descriptor import Primitive
-from tasks.transfer import shapes
 from tasks.transfer.axes import place_axes
 from tasks.transfer.local_refine import LocalCheck, LocalParams, _judge, axis_region, check_axis
 from tasks.transfer.similarity import Similarity, point_line_distance
 from tasks.transfer.symmetry_axis import fit_symmetry_axis
+from tests.transfer import shapes
 
 CAP_AXIS = Primitive("rotation", (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), 3.0)
 

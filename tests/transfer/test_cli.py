@@ -9,13 +9,13 @@ import numpy as np
 import open3d as o3d
 import pytest
 
+from flows.cli import main
 from schemas.descriptor import Descriptor
-from tasks.cli import main
 from tasks.errors import TransferError
 from tasks.store import Store
-from tasks.transfer import shapes
 from tasks.transfer.model_io import read_model_file, read_recording_model, source_model_of
 from tasks.transfer.similarity import Similarity, angle_between_deg
+from tests.transfer import shapes
 
 from .conftest import make_descriptor
 
@@ -68,7 +68,7 @@ def test_cli_errors_are_one_line_exit_2(
     np.save(empty, np.zeros((0, 3)))
     cases = {
         str(tmp_path / "missing.ply"): "no such model file",
-        str(bad): "empty point cloud",
+        str(bad): "not a PLY file (it does not start with 'ply')",
         str(empty): "empty point cloud",
         str(tmp_path / "x.unknown"): "no such model file",
     }
@@ -91,13 +91,13 @@ def test_cli_errors_are_one_line_exit_2(
 def test_model_reader_errors(store: Store, tmp_path: Path) -> None:
     with pytest.raises(TransferError, match="no such model file"):
         read_model_file(tmp_path / "nothing.ply")
-    with pytest.raises(TransferError, match="not a file"):
+    with pytest.raises(TransferError, match="not a regular file"):
         read_model_file(tmp_path)
     (tmp_path / "m.foo").write_text("1 2 3")
     with pytest.raises(TransferError, match=r"unknown model format \.foo"):
         read_model_file(tmp_path / "m.foo")
     np.save(tmp_path / "flat.npy", np.zeros((5, 2)))
-    with pytest.raises(TransferError, match=r"expected an \(n, 3\) array, got shape \(5, 2\)"):
+    with pytest.raises(TransferError, match=r"expected an \(n, 3\) array of numbers, got shape \(5, 2\)"):
         read_model_file(tmp_path / "flat.npy")
     (tmp_path / "junk.npy").write_bytes(b"junk")
     with pytest.raises(TransferError, match=r"unreadable \.npy"):
@@ -147,3 +147,54 @@ def test_recording_target(
     assert name == "small bottle"
     assert len(rec_id) == 16
     assert points.shape[0] == len(bottle_model.points)
+
+
+PLY_XYZ = "property float x\nproperty float y\nproperty float z\n"
+
+
+@pytest.mark.parametrize(
+    ("header", "message"),
+    [
+        ("element vertex 2000000000\n", r"declares 2000000000 vertex elements \(limit 10000000 vertices\)"),
+        ("element vertex 50\n", r"declares 600 bytes of elements but the file holds 24"),
+        ("element vertex lots\n", r"element 'vertex' has count 'lots', not a number"),
+        ("element vertex -4\n", r"declares -4 vertex elements"),
+    ],
+)
+def test_ply_header_is_checked_before_reading(tmp_path: Path, header: str, message: str) -> None:
+    path = tmp_path / "crafted.ply"
+    head = f"ply\nformat binary_little_endian 1.0\n{header}{PLY_XYZ}end_header\n"
+    path.write_bytes(head.encode() + bytes(24))
+    with pytest.raises(TransferError, match=message):
+        read_model_file(path)
+
+
+def test_ply_without_end_header_and_oversized_files_are_refused(tmp_path: Path, monkeypatch) -> None:
+    path = tmp_path / "endless.ply"
+    path.write_bytes(b"ply\n" + b"comment x\n" * 8000)
+    with pytest.raises(TransferError, match="PLY header without end_header in its first 65536 bytes"):
+        read_model_file(path)
+    from tasks.transfer import model_io
+
+    monkeypatch.setattr(model_io, "MAX_MODEL_FILE_BYTES", 1000)
+    with pytest.raises(TransferError, match=r"80004 bytes, larger than a model file may be \(1000 bytes\)"):
+        read_model_file(path)
+
+
+def test_what_open3d_prints_joins_the_one_line_error(tmp_path: Path, capfd) -> None:
+    path = tmp_path / "cut.ply"
+    path.write_bytes(f"ply\nformat ascii 1.0\nelement vertex 3\n{PLY_XYZ}end_header\nx y z\nq r s\nt u v\n".encode())
+    with pytest.raises(TransferError, match=r"corrupt PLY \(RPly: Error reading 'x' of 'vertex' number 0\)"):
+        read_model_file(path)
+    assert "RPly" not in capfd.readouterr().err
+
+
+def test_dense_models_are_thinned_for_registration(tmp_path: Path) -> None:
+    from tasks.transfer.model_io import REGISTRATION_POINTS
+
+    dense = np.random.default_rng(3).normal(size=(REGISTRATION_POINTS + 5000, 3))
+    np.save(tmp_path / "dense.npy", dense)
+    got = read_model_file(tmp_path / "dense.npy", seed=1)
+    assert got.shape == (REGISTRATION_POINTS, 3)
+    assert np.array_equal(got, read_model_file(tmp_path / "dense.npy", seed=1))  # seeded: the same subset
+    assert np.isin(got[:, 0], dense[:, 0]).all()  # a subset, not new points

@@ -8,12 +8,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from tasks.transfer import shapes
 from tasks.transfer.clouds import downsample, similarity_icp
 from tasks.transfer.registration import both_ways_icp
 from tasks.transfer.registration_types import Alignment, RegistrationParams
 from tasks.transfer.scoring import grip_score, poor_fit_warning
 from tasks.transfer.similarity import Similarity
+from tests.transfer import shapes
 
 
 def _view_scan(model: shapes.ShapeModel, truth: Similarity, direction: np.ndarray, keep: float) -> np.ndarray:

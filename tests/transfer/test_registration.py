@@ -9,11 +9,11 @@ import pytest
 
 from schemas.descriptor import ObjectRef
 from tasks.errors import GraspError, TransferError
-from tasks.transfer import shapes
 from tasks.transfer.api import RegistrationParams, register_models, transfer_descriptor
 from tasks.transfer.carry import carry_grasp, grip_points
 from tasks.transfer.clouds import check_model
 from tasks.transfer.similarity import Similarity, angle_between_deg, point_line_distance
+from tests.transfer import shapes
 
 from .conftest import make_descriptor
 

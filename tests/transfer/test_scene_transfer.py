@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from flows.cli import main
 from schemas.descriptor import Descriptor
-from tasks.cli import main
 from tasks.errors import SimulationError
 from tasks.scenes.catalog import build_scene
 from tasks.scenes.kinematics import truth_descriptor

@@ -8,8 +8,8 @@ import pytest
 from schemas.descriptor import Grasp, Primitive
 from tasks.rotations import matrix_from_quat, quat_tuple_from_matrix
 from tasks.transfer.carry import carry_grasp, carry_primitive
-from tasks.transfer.shapes import random_rotation
 from tasks.transfer.similarity import Similarity, angle_between_deg, point_line_distance, umeyama
+from tests.transfer.shapes import random_rotation
 
 
 def _truth(seed: int, scale: float) -> Similarity:

@@ -12,8 +12,9 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from tasks.arrays import Points
-from tasks.grasp.object_model import ObjectModel, PrimitiveShape
+from tasks.grasp.object_model import ObjectModel
 from tasks.grasp.part_cylinders import prism_vertices
+from tasks.grasp.primitive_shape import PrimitiveShape
 from tasks.scenes.surface import WorldShape, sample_shapes
 
 SPHERE_VERTICES = 400

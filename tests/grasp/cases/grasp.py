@@ -15,12 +15,13 @@ from scipy.spatial.transform import Rotation
 
 from tasks.arrays import Points
 from tasks.grasp.api import part_near
-from tasks.grasp.object_model import ObjectModel, PrimitiveShape, build_object_model, labelled_model
+from tasks.grasp.object_model import ObjectModel, build_object_model, labelled_model
+from tasks.grasp.primitive_shape import PrimitiveShape
 from tasks.grasp.shake import Motion, ShakeParams
-from tasks.grasp.surface_sampling import sample_box_surface, sample_cylinder_surface
 from tasks.scenes.scene import Scene
 from tasks.scenes.surface import WorldShape, model_shapes, sample_shapes
 from tests.grasp.cases.exact import distance_to, exact_model, handle_shapes
+from tests.grasp.surface_sampling import sample_box_surface, sample_cylinder_surface
 
 Resample = Callable[[np.random.Generator], ObjectModel]
 """An independent model of a benchmark object for the hold test, from a generator of the benchmark's own."""

@@ -3,28 +3,23 @@
 from __future__ import annotations
 
 import argparse
+import json
 import re
 import sys
 from pathlib import Path
 
+import numpy as np
 
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of ``pbd transfer``."""
-    parser.add_argument("descriptor", metavar="DESCRIPTOR", help="file, content id (8+ hex) or name@vN / name@latest")
-    parser.add_argument(
-        "--to",
-        dest="model",
-        metavar="MODEL",
-        required=True,
-        help="target model: PLY, PCD, XYZ, OBJ, STL, OFF, Parquet, npy; or a recording id / file with an object model",
-    )
-    parser.add_argument("--out", metavar="FILE", default=None, help="also write the transferred descriptor to FILE")
-    parser.add_argument("--name", metavar="NAME", default=None, help="descriptor name (default <source>-to-<model>)")
-    parser.add_argument("--whole", action="store_true", help="align the whole model, not only its functional part")
-    parser.add_argument("--crop-radius", metavar="M", type=float, default=None, help="functional region radius (m)")
-    parser.add_argument("--strict", action="store_true", help="a poor registration is an error (exit 2)")
-    parser.add_argument("--replan-grasp", action="store_true", help="re-plan the grasp on the target model")
-    parser.add_argument("--seed", metavar="N", type=int, default=0, help="random seed (default 0)")
+from schemas.descriptor import ObjectRef
+from tasks.errors import TransferError
+from tasks.store import Store, model_sha256, resolve_store_root, write_bytes_atomic
+from tasks.transfer.api import RegistrationParams, transfer_descriptor
+from tasks.transfer.model_io import (
+    is_recording_ref,
+    read_model_file,
+    read_recording_model,
+    source_model_of,
+)
 
 
 def _label(text: str) -> str:
@@ -35,18 +30,6 @@ def _label(text: str) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Register, carry, store; print ``name@vN``, the id and the registration figures."""
-    import numpy as np  # noqa: PLC0415
-
-    from schemas.descriptor import ObjectRef  # noqa: PLC0415
-    from tasks.errors import TransferError  # noqa: PLC0415
-    from tasks.store import Store, resolve_store_root, write_bytes_atomic  # noqa: PLC0415
-    from tasks.transfer.api import RegistrationParams, transfer_descriptor  # noqa: PLC0415
-    from tasks.transfer.model_io import (  # noqa: PLC0415
-        is_recording_ref,
-        read_model_file,
-        read_recording_model,
-        source_model_of,
-    )
 
     if args.crop_radius is not None and not args.crop_radius > 0.0:
         msg = f"--crop-radius {args.crop_radius}: must be positive (metres)"
@@ -60,8 +43,8 @@ def run(args: argparse.Namespace) -> int:
         path = Path(args.model)
         target_points = read_model_file(path, seed=args.seed)
         label, object_name = str(path), _label(path.stem)
-    sha, model_path = store.put_model(target_points)
-    target_ref = ObjectRef(object_name, sha, len(target_points), str(model_path))
+    sha = model_sha256(target_points)  # stored only once the transfer succeeded
+    target_ref = ObjectRef(object_name, sha, len(target_points), str(store.model_path(sha)))
     params = RegistrationParams(crop_radius_m=args.crop_radius, whole=args.whole)
     name = args.name or f"{source.name}-to-{_label(object_name)}"
     result = transfer_descriptor(
@@ -76,12 +59,29 @@ def run(args: argparse.Namespace) -> int:
         target_label=label,
         rng=np.random.default_rng(args.seed),
     )
+    store.put_model(target_points)
     put = store.put_descriptor(result.descriptor)
     if args.out:
         write_bytes_atomic(Path(args.out), result.descriptor.to_json().encode())
     reg = result.registration
     for warning in result.warnings:
         sys.stderr.write(f"pbd transfer: warning: {warning}\n")
+    if args.json:
+        out = {
+            "ref": f"{put.name}@v{put.version}",
+            "created": put.created,
+            "id": put.id,
+            "parent": source.id,
+            "fitness": reg.best.fitness,
+            "inlier_rmse_m": reg.best.inlier_rmse_m,
+            "scale": reg.best.transform.scale,
+            "axis_spread_deg": result.axis_spread_deg,
+            "axis_spread_mm": result.axis_spread_mm,
+            "crop_radius_m": reg.crop_radius_m,
+            "poor": result.poor,
+        }
+        sys.stdout.write(json.dumps(out, indent=2) + "\n")
+        return 0
     sys.stdout.write(
         f"{put.name}@v{put.version}{'' if put.created else ' (unchanged)'}\n"
         f"id {put.id}\n"

@@ -41,7 +41,7 @@ class SceneModel:
 
 def outward_normals(points: Points) -> Points:
     """Unit normals of a surface sample (n, 3), each turned to point away from the sample's centroid."""
-    import open3d as o3d  # noqa: PLC0415 - heavy
+    import open3d as o3d
 
     pcd = o3d.geometry.PointCloud()
     pcd.points = o3d.utility.Vector3dVector(np.ascontiguousarray(points, dtype=np.float64))
@@ -56,9 +56,9 @@ def outward_normals(points: Points) -> Points:
 
 def scene_model(name: str, seed: int, n_points: int, rng: np.random.Generator) -> SceneModel:
     """The object model of instance ``seed`` of built-in scene ``name``: ``n_points`` surface samples (no noise)."""
-    from tasks.scenes.catalog import build_scene  # noqa: PLC0415 - pybullet at call time
-    from tasks.scenes.kinematics import truth_descriptor  # noqa: PLC0415
-    from tasks.scenes.surface import sample_object_model  # noqa: PLC0415
+    from tasks.scenes.catalog import build_scene
+    from tasks.scenes.kinematics import truth_descriptor
+    from tasks.scenes.surface import sample_object_model
 
     scene = build_scene(name, seed)
     points = sample_object_model(scene, n_points, rng)

@@ -16,30 +16,9 @@ import numpy as np
 
 from schemas.descriptor import Descriptor, Grasp, ObjectRef, Primitive
 from tasks.arrays import FloatArray
+from tasks.hand.grips import BAR_CURL_RAD, CAP_CURL_RAD, HANDLE_RADIUS, HANDLE_STANDOFF, PALM_TO_BAR, curl_eigengrasps
 from tasks.rotations import quat_from_matrix
 from tasks.simulate.waypoints import matrix_from_axis_angle
-
-HANDLE_RADIUS = 0.012
-"""Bar handles are 24 mm thick."""
-HANDLE_STANDOFF = 0.07
-"""Bar axis in front of the face it is mounted on, metres."""
-PALM_TO_BAR = 0.04
-"""Palm face to bar axis along the approach, metres (the Barrett fingers wrap a bar there)."""
-BAR_CURL_RAD = 1.31
-"""A power grasp of a bar: spread 0 (fingers 1, 2 opposite finger 3), proximal links 1.31 rad past pointing along
-the approach (clamped to the hand's range)."""
-CAP_CURL_RAD = 0.9
-"""A cap grasped from above: the fingers 0.9 rad past pointing along the approach."""
-
-
-def curl_eigengrasps(curl_rad: float) -> tuple[float, float]:
-    """Eigengrasp amplitudes of spread 0 and all three fingers ``curl_rad`` past pointing along the approach."""
-    from tasks.grasp import barrett  # noqa: PLC0415
-    from tasks.simulate.robot import finger_straight_rad  # noqa: PLC0415
-
-    finger = min(float(barrett.DOF_UPPER[1]), finger_straight_rad() + curl_rad)
-    return barrett.eigengrasps_from_dofs([0.0, finger, finger, finger])
-
 
 _INERTIAL_FIXED = '<inertial><mass value="0"/><inertia ixx="0" iyy="0" izz="0" ixy="0" ixz="0" iyz="0"/></inertial>'
 

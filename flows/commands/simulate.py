@@ -2,7 +2,9 @@
 
 Executes the descriptor in pybullet (DIRECT, software renderer) and prints, per primitive, the demonstrated
 extent, the joint motion achieved, contact and time, then success. ``--json`` prints one JSON document on stdout
-alone. Exit 0 when executed (success or not is in the output), 2 for bad input. pybullet is imported in ``run``.
+alone. Without ``--scene``, ``--urdf`` or ``--seed`` the descriptor runs in the built-in scene instance it was
+learned on (its provenance's ``scene``, else its recording's meta), else on the nominal scene named like its object.
+Exit 0 when executed (success or not is in the output), 2 for bad input.
 """
 
 from __future__ import annotations
@@ -11,31 +13,17 @@ import argparse
 import json
 import math
 import sys
-from pathlib import Path
 from typing import TYPE_CHECKING
+
+import numpy as np
+
+from tasks.errors import SimulationError
+from tasks.simulate.api import simulate_descriptor
+from tasks.simulate.instance import descriptor_instance, recording_meta
+from tasks.store import Store, resolve_store_root
 
 if TYPE_CHECKING:
     from tasks.simulate.result import SimulationResult
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of ``pbd simulate``."""
-    parser.add_argument("descriptor", metavar="DESCRIPTOR", help="file path, content id (8+ hex) or name@vN|latest")
-    where = parser.add_mutually_exclusive_group()
-    where.add_argument("--scene", metavar="NAME", help="built-in scene (default: the descriptor's object name)")
-    where.add_argument("--urdf", type=Path, metavar="FILE", help="your own articulated object (fixed base at origin)")
-    parser.add_argument(
-        "--joints", metavar="J1,J2", help="with --urdf: the joints the chain may drive, comma-separated"
-    )
-    parser.add_argument("--seed", type=int, default=None, help="randomised scene instance (as given to pbd synth)")
-    parser.add_argument("--frames", type=Path, metavar="DIR", help="write key frames (PNG) into DIR")
-    parser.add_argument(
-        "--grasp",
-        choices=("constraint", "friction"),
-        default="constraint",
-        help="hold the part by a fixed palm constraint once the fingers close (default) or by friction alone",
-    )
-    parser.add_argument("--json", action="store_true", help="machine-readable result on stdout")
 
 
 def _text(result: SimulationResult) -> str:
@@ -68,11 +56,6 @@ def _text(result: SimulationResult) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Load the descriptor, run the simulation, print the result; exit 0 once executed."""
-    import numpy as np  # noqa: PLC0415
-
-    from tasks.errors import SimulationError  # noqa: PLC0415
-    from tasks.simulate.api import simulate_descriptor  # noqa: PLC0415
-    from tasks.store import Store, resolve_store_root  # noqa: PLC0415
 
     if args.joints and args.urdf is None:
         msg = "--joints needs --urdf"
@@ -80,9 +63,14 @@ def run(args: argparse.Namespace) -> int:
     store = Store(resolve_store_root(args.store))
     desc = store.load(args.descriptor)
     joints = [j.strip() for j in args.joints.split(",") if j.strip()] if args.joints else None
-    rng = np.random.default_rng(args.seed) if args.seed is not None else None
+    scene, seed = args.scene, args.seed
+    if scene is None and seed is None and args.urdf is None:  # the scene instance the descriptor was learned on
+        rec_id = desc.recording_id
+        meta = recording_meta(store.recording_dir(rec_id)) if rec_id and store.has_recording(rec_id) else None
+        scene, seed = descriptor_instance(desc.extra_provenance, meta)
+    rng = np.random.default_rng(seed) if seed is not None else None
     result = simulate_descriptor(
-        desc, scene=args.scene, urdf=args.urdf, joints=joints, rng=rng, frames_dir=args.frames, grasp_mode=args.grasp
+        desc, scene=scene, urdf=args.urdf, joints=joints, rng=rng, frames_dir=args.frames, grasp_mode=args.grasp
     )
     if args.json:
         sys.stdout.write(json.dumps(result.to_dict(), indent=2, sort_keys=True) + "\n")

@@ -75,7 +75,7 @@ def demo_duration_s(desc: Descriptor) -> float:
 
 def demo_tracks(urdf: Path, desc: Descriptor, rng: np.random.Generator) -> DemoTracks:
     """Markers and wrist of a demonstration of ``desc`` (a truth descriptor with a grasp) on the object ``urdf``."""
-    import pybullet as pb  # noqa: PLC0415
+    import pybullet as pb
 
     assert desc.grasp is not None
     client = int(pb.connect(pb.DIRECT))
@@ -124,7 +124,7 @@ def demo_tracks(urdf: Path, desc: Descriptor, rng: np.random.Generator) -> DemoT
 
 def write_demo(path: Path, tracks: DemoTracks) -> Path:
     """Write the demonstration as an MCAP recording at ``path`` (refuses to overwrite); returns ``path``."""
-    from tasks.recording.writer import RecordingWriter  # noqa: PLC0415
+    from tasks.recording.writer import RecordingWriter
 
     with RecordingWriter(path, "mcap") as writer:
         for topic, (stamps, points) in tracks.markers.items():
