@@ -51,7 +51,6 @@ from scipy.spatial.transform import Rotation
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from bench.cases.grasp import Case, hold_program, random_cases, scene_cases
 from schemas.descriptor import Grasp
 from tasks.errors import GraspError
 from tasks.grasp.api import part_near, plan_on_model
@@ -65,6 +64,7 @@ from tasks.grasp.planner import PlannerParams, evaluate_pose
 from tasks.grasp.shake import QUICK_SHAKE, shake_test
 from tasks.grasp.worker_pool import PROCESSES_ENV, wait_idle
 from tasks.hand import barrett
+from tests.grasp.cases.grasp import Case, hold_program, random_cases, scene_cases
 
 PLAN_TARGET_S = 5.0
 """The issue's planning time target, seconds per plan on 2 cores."""

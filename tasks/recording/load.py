@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-import itertools
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pyarrow.parquet as pq
+import polars as pl
 
 from schemas.tables import (
     MARKERS_FILE,
@@ -21,6 +20,11 @@ from schemas.tables import (
 from tasks.arrays import Points, Quats, StampsNs
 from tasks.errors import RecordingError
 from tasks.store import Store
+
+XYZ = ("x", "y", "z")
+"""Position columns of the marker, pose and object-model tables (metres, world frame)."""
+QUAT = ("qx", "qy", "qz", "qw")
+"""Orientation columns of the pose table (unit quaternion, scalar last)."""
 
 
 @dataclass(frozen=True)
@@ -69,16 +73,31 @@ class RecordingData:
         return None
 
 
-def _split(names: Any, *columns: Any) -> dict[str, tuple[Any, ...]]:
-    """Split columns sorted by ``names`` into per-name slices."""
-    names_arr = np.asarray(names, dtype=object)
-    if len(names_arr) == 0:
-        return {}
-    change = np.flatnonzero(names_arr[1:] != names_arr[:-1]) + 1
-    bounds = [0, *change.tolist(), len(names_arr)]
-    out: dict[str, tuple[Any, ...]] = {}
-    for a, b in itertools.pairwise(bounds):
-        out[str(names_arr[a])] = tuple(c[a:b] for c in columns)
+def _read_sorted(path: Path, columns: tuple[str, ...], by: str) -> pl.DataFrame:
+    """The ``columns`` of the Parquet table ``path`` sorted by ``by`` then ``stamp_ns`` (if present);
+    ``RecordingError`` naming the file when it cannot be read or lacks a column."""
+    try:
+        frame = pl.read_parquet(path, columns=list(columns))
+    except (OSError, pl.exceptions.PolarsError) as err:
+        msg = f"cannot read ingested table ({str(err).splitlines()[0]})"
+        raise RecordingError(path, msg) from err
+    return frame.sort(by, "stamp_ns") if by else frame
+
+
+def _groups(frame: pl.DataFrame, by: str) -> dict[str, pl.DataFrame]:
+    """``frame``'s rows split by the string column ``by``, in sorted order of its values."""
+    return {str(key[0]): part for key, part in frame.partition_by(by, as_dict=True, maintain_order=True).items()}
+
+
+def _floats(frame: pl.DataFrame, columns: tuple[str, ...]) -> Points:
+    """(n, len(columns)) float64 array of ``columns`` (NaN where null)."""
+    out: Points = frame.select(pl.col(c).cast(pl.Float64) for c in columns).to_numpy().astype(np.float64)
+    return out
+
+
+def _stamps(frame: pl.DataFrame) -> StampsNs:
+    """(n,) int64 ns of the ``stamp_ns`` column."""
+    out: StampsNs = frame["stamp_ns"].to_numpy().astype(np.int64)
     return out
 
 
@@ -100,35 +119,25 @@ def read_recording_info(folder: Path) -> dict[str, Any]:
 
 def load_recording_folder(folder: Path) -> RecordingData:
     """Load a recording folder written by ingest; raise ``RecordingError`` naming the file on bad content."""
-
     info = read_recording_info(folder)
 
     markers: dict[str, MarkerTrack] = {}
     if (folder / MARKERS_FILE).is_file():
-        t = pq.read_table(folder / MARKERS_FILE)
-        t = t.sort_by([("marker", "ascending"), ("stamp_ns", "ascending")])
-        xyz = np.column_stack([t.column(c).to_numpy(zero_copy_only=False) for c in ("x", "y", "z")]).astype(np.float64)
-        stamps = t.column("stamp_ns").to_numpy().astype(np.int64)
-        for name, (s, p) in _split(t.column("marker").to_pylist(), stamps, xyz).items():
-            markers[name] = MarkerTrack(name, s, p)
+        table = _read_sorted(folder / MARKERS_FILE, ("marker", "stamp_ns", *XYZ), "marker")
+        for name, part in _groups(table, "marker").items():
+            markers[name] = MarkerTrack(name, _stamps(part), _floats(part, XYZ))
 
     poses: dict[str, PoseTrack] = {}
     if (folder / POSES_FILE).is_file():
-        t = pq.read_table(folder / POSES_FILE)
-        t = t.sort_by([("frame", "ascending"), ("stamp_ns", "ascending")])
-        pos = np.column_stack([t.column(c).to_numpy(zero_copy_only=False) for c in ("x", "y", "z")]).astype(np.float64)
-        quat = np.column_stack([t.column(c).to_numpy(zero_copy_only=False) for c in ("qx", "qy", "qz", "qw")])
-        stamps = t.column("stamp_ns").to_numpy().astype(np.int64)
-        roles = t.column("role").to_pylist()
-        frames = t.column("frame").to_pylist()
-        for name, (s, p, q, r) in _split(frames, stamps, pos, quat.astype(np.float64), np.asarray(roles)).items():
-            poses[name] = PoseTrack(name, str(r[0]), s, p, q)
+        table = _read_sorted(folder / POSES_FILE, ("frame", "role", "stamp_ns", *XYZ, *QUAT), "frame")
+        for name, part in _groups(table, "frame").items():
+            poses[name] = PoseTrack(name, str(part["role"][0]), _stamps(part), _floats(part, XYZ), _floats(part, QUAT))
 
     model: Points | None = None
     if (folder / OBJECT_MODEL_FILE).is_file():
-        t = pq.read_table(folder / OBJECT_MODEL_FILE)
-        if t.num_rows:
-            model = np.column_stack([t.column(c).to_numpy() for c in ("x", "y", "z")]).astype(np.float64)
+        table = _read_sorted(folder / OBJECT_MODEL_FILE, XYZ, "")
+        if table.height:
+            model = _floats(table, XYZ)
 
     meta = info.get("meta") or {}
     return RecordingData(str(info.get("id", folder.name)), folder, info, markers, poses, model, dict(meta))

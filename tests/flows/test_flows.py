@@ -56,6 +56,7 @@ def calls(monkeypatch: pytest.MonkeyPatch) -> CallCounter:
     return counter
 
 
+@pytest.mark.slow
 def test_unchanged_archive_does_no_stage_work_and_a_change_reruns_what_follows_it(
     prefect_harness: None, archive: Path, tmp_path: Path, calls: CallCounter
 ) -> None:
@@ -135,6 +136,7 @@ def test_an_unknown_parameter_fails_every_recording_and_the_run(
     assert all("unknown learning parameter(s) no_such" in (e["error"] or "") for e in summary["entries"])
 
 
+@pytest.mark.slow
 def test_cache_survives_a_new_process_and_prefect_home(prefect_harness: None, archive: Path, tmp_path: Path) -> None:
     store = tmp_path / "store"
     reprocess_archive(str(archive), store=str(store), report=False)

@@ -99,6 +99,7 @@ def test_pbd_archive_refuses_a_malformed_param(tmp_path: Path, capsys: pytest.Ca
     assert "--param 't0': expected KEY=VALUE" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_pbd_demo_runs_the_four_paper_tasks_and_each_succeeds_in_simulation(
     prefect_harness: None, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -27,7 +27,7 @@ from tests.flows.local_server import (
 )
 from tests.flows.recordings import write_door_recording
 
-pytestmark = pytest.mark.server
+pytestmark = [pytest.mark.server, pytest.mark.slow]
 
 PBD = (sys.executable, "-m", "flows.cli")
 """The pbd command line of this checkout."""

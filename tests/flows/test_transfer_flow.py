@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from flows.cli import main
 from flows.transfer_descriptor import transfer_descriptor_flow
@@ -50,6 +51,7 @@ def test_transfer_carries_the_axis_and_records_the_parent(prefect_harness: None,
     assert summary["report"] is not None and Path(summary["report"]).is_file()
 
 
+@pytest.mark.slow
 def test_transfer_to_a_synth_recording_simulates_in_the_instance_it_names(
     prefect_harness: None, tmp_path: Path
 ) -> None:

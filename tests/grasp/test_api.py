@@ -60,6 +60,7 @@ def test_no_object_model_gives_no_grasp() -> None:
     assert plan_grasp_for_recording(None, track, 0.5, 10**9, np.random.default_rng(0)) is None
 
 
+@pytest.mark.slow
 def test_plans_for_a_recording_from_the_wrist_track(handle_points: tuple[Points, Points]) -> None:
     palm = HANDLE_CENTER + np.array([0.0, 0.0, 0.05])
     track = _track(palm, PALM_DOWN)
@@ -95,6 +96,7 @@ def test_errors_name_what_is_wrong(handle_points: tuple[Points, Points]) -> None
         plan_grasp_for_recording(handle_points[0], empty, 0.0, 0, rng)
 
 
+@pytest.mark.slow
 def test_plans_for_a_recording_written_ingested_and_loaded(tmp_path: Path, store: Store) -> None:
     """A demonstration MCAP (real writer) with a handle cloud, a wrist track and one marker, through ingest."""
     from tasks.ingest.api import ingest_recording

@@ -76,6 +76,7 @@ def test_square_pinches_are_held_back_on_the_square_middle_first(handle_model: O
     assert order == sorted(order, key=lambda o: (o[0], round(o[1], 4)))
 
 
+@pytest.mark.slow
 def test_benchmark_handle_that_no_near_grasp_holds_is_held_by_a_square_pinch() -> None:
     """The benchmark's handle r12 l140 (seed 11), 19 mm before its plate: fingers closing from near the demonstrated
     palm meet the plate first, and at the eleventh session no grasp the planner tried held it. The planned grasp is

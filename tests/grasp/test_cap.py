@@ -88,6 +88,7 @@ def test_bottle_model_is_its_cap_on_a_mount() -> None:
     assert float(model.points[model.mount][:, 2].max()) < TOP[2] - CAP_HEIGHT_M + 0.004
 
 
+@pytest.mark.slow
 def test_benchmark_bottle_cap_is_held_not_the_neck() -> None:
     """The benchmark's bottle seed 1 (seed 11): planned on the whole scan as one free body, the grasp the planner's
     check held closed on the cap and the neck and dropped the exact cap. Planned on the cap, the grasp holds the

@@ -1,18 +1,19 @@
-"""The benchmark's exact hold-test models (``bench/cases/exact.py``): a handle's bar, posts and plate and a
+"""The benchmark's exact hold-test models (``tests/grasp/cases/exact.py``): a handle's bar, posts and plate and a
 scene's grasped part on the shapes around it, each one exact convex piece; a grasp planned on a scanned handle
 holds its exact shapes."""
 
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from scipy.spatial.transform import Rotation
 
-from bench.cases.exact import exact_model, handle_shapes, hull_vertices
-from bench.cases.grasp import grasped_shapes, handle_on_plate, scene_cases
 from tasks.grasp.api import plan_grasp
 from tasks.grasp.hold_check import hold_check
 from tasks.grasp.shake import shake_test
 from tasks.scenes.catalog import build_scene
+from tests.grasp.cases.exact import exact_model, handle_shapes, hull_vertices
+from tests.grasp.cases.grasp import grasped_shapes, handle_on_plate, scene_cases
 
 
 def test_a_handles_exact_model_is_its_bar_and_posts_on_its_plate() -> None:
@@ -39,6 +40,7 @@ def test_a_scenes_exact_model_is_its_part_on_the_shapes_near_the_palm() -> None:
     assert any(np.ptp(p, axis=0).max() > 0.8 for p in model.parts[len(lever) :])
 
 
+@pytest.mark.slow
 def test_a_grasp_planned_on_a_scanned_handle_holds_its_exact_shapes() -> None:
     rng = np.random.default_rng(8)
     pts, centre = handle_on_plate(0.012, 0.14, 0.04, True, rng)

@@ -4,14 +4,15 @@ keeps its convex pieces, and the grasp planned on the fit holds the exact shape.
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from scipy.spatial.transform import Rotation
 
-from bench.cases.grasp import handle_on_plate
 from tasks.grasp.api import plan_grasp
 from tasks.grasp.hold_check import hold_check
 from tasks.grasp.object_model import build_object_model
 from tasks.grasp.primitive_shape import PrimitiveShape
 from tasks.grasp.shake import shake_test
+from tests.grasp.cases.grasp import handle_on_plate
 from tests.grasp.surface_sampling import sample_box_surface, sample_cylinder_surface
 
 CENTRE = np.array([0.5, 0.0, 0.4])
@@ -52,6 +53,7 @@ def test_a_handle_on_its_plate_keeps_its_convex_pieces() -> None:
     assert abs(bar_alone.primitive.size[0] - 0.012) < 0.001
 
 
+@pytest.mark.slow
 def test_a_grasp_planned_on_a_fitted_cylinder_holds_the_exact_cylinder() -> None:
     rng = np.random.default_rng(6)
     pts, _ = sample_cylinder_surface(0.03, 0.07, 3000, rng)

@@ -28,6 +28,7 @@ def test_held_closure_records_the_friction_it_was_found_at() -> None:
     assert held_closure([closed_above(cylinder, 0.15)], cylinder) is None  # the fingers close on nothing
 
 
+@pytest.mark.slow
 def test_benchmark_cylinder_held_only_without_closure_at_the_planners_friction() -> None:
     """The benchmark's upright cylinder r20 (seed 7): of its near grasps the one that holds under the planner's
     check has no force closure at 0.5, even squeezed; at the check's friction it has one, and it holds the exact

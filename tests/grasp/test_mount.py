@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from scipy.spatial.transform import Rotation
 
 from schemas.descriptor import Grasp
@@ -65,6 +66,7 @@ def test_labelled_model_keeps_the_mount_apart() -> None:
     assert not plain.is_mount_piece(np.arange(len(plain.parts))).any()
 
 
+@pytest.mark.slow
 def test_fingers_stopped_by_the_mount_do_not_hold_the_part() -> None:
     grasp = _palm_on_top()
     rng = np.random.default_rng(1)

@@ -6,7 +6,6 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from bench.cases.grasp import handle_on_plate
 from tasks.grasp.api import planned_on
 from tasks.grasp.object_model import (
     PrimitiveShape,
@@ -16,6 +15,7 @@ from tasks.grasp.object_model import (
     voxel_downsample,
 )
 from tasks.grasp.part_cylinders import find_cylinder, prism_vertices
+from tests.grasp.cases.grasp import handle_on_plate
 from tests.grasp.surface_sampling import sample_box_surface
 
 PALM_OFFSET = np.array([0.0, -0.06, 0.0])

@@ -11,7 +11,6 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from bench.cases.exact import exact_model
 from tasks.arrays import Points
 from tasks.grasp import api, object_model, planner
 from tasks.grasp.api import plan_on_model
@@ -29,6 +28,7 @@ from tasks.grasp.planner import GraspCandidate, PlannerParams
 from tasks.grasp.shake import Motion, ShakeParams, shake_test
 from tasks.scenes.surface import WorldShape
 from tests.grasp.bench_object import plan_bench_object
+from tests.grasp.cases.exact import exact_model
 from tests.grasp.surface_sampling import sample_box_surface, sample_cylinder_surface
 
 BAR_CENTRE = np.array([0.5, 0.0, 0.5])
@@ -111,10 +111,11 @@ def test_neighbours_of_a_pinch_are_rolled_and_moved_on_the_approach(planner_mode
     assert len(set(seen)) == len(seen)
 
 
+@pytest.mark.slow
 def test_thin_gap_handle_is_held_by_a_pinch(planner_model: ObjectModel) -> None:
     """No grasp near the demonstration holds; the planned grasp is a pinch 60-100 mm from the bar, with a force
     closure, and it holds the bar (a free body, the plate an obstacle while the fingers close) on its exact shapes
-    (``bench/cases/exact.py``), under world gravity and shakes along x, y and z at 2.5 Hz with 6 m/s² peaks, three
+    (``tests/grasp/cases/exact.py``), under world gravity and shakes along x, y and z at 2.5 Hz with 6 m/s² peaks, three
     cycles."""
     cand = plan_on_model(planner_model, SEED_POS, PALM_ROT.as_quat(), np.random.default_rng(7))
     grasp = grasp_from_candidate(cand)
@@ -154,6 +155,7 @@ def test_rolled_pinches_are_the_pinches_turned_about_the_approach(planner_model:
     assert rolls == {-15, 15}
 
 
+@pytest.mark.slow
 def test_benchmark_handle_whose_pinches_show_no_closure_is_held_by_a_square_one() -> None:
     """The benchmark's handle r13 l128 (seed 7): no grasp near the demonstration holds, and the pinches of the
     demonstrated palm that hold show no force closure, even squeezed (a rolled one held at the eleventh session).
@@ -170,6 +172,7 @@ def test_benchmark_handle_whose_pinches_show_no_closure_is_held_by_a_square_one(
     assert planned.holds
 
 
+@pytest.mark.slow
 def test_benchmark_handle_held_loosely_near_the_demonstration_is_held_by_a_firm_pinch(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
@@ -187,6 +190,7 @@ def test_benchmark_handle_held_loosely_near_the_demonstration_is_held_by_a_firm_
     assert planned.holds
 
 
+@pytest.mark.slow
 def test_a_handle_is_pinched_before_its_neighbourhood_is_searched_again(monkeypatch: pytest.MonkeyPatch) -> None:
     """The benchmark's handle r13 l128 (seed 7): no grasp of the first round holds, and the pinches are checked
     before a second annealing round (``api.ROUNDS``): one search, and the pinch holds the exact handle."""

@@ -151,7 +151,7 @@ def test_shapes_that_are_neither_give_none(make: Callable[[np.random.Generator],
     ("radius", "length", "standoff", "vertical"), [(0.008, 0.10, 0.03, True), (0.016, 0.18, 0.05, False)]
 )
 def test_bar_handle_on_its_posts_gives_none(radius: float, length: float, standoff: float, vertical: bool) -> None:
-    from bench.cases.grasp import PLATE_POINTS, handle_on_plate
+    from tests.grasp.cases.grasp import PLATE_POINTS, handle_on_plate
 
     rng = np.random.default_rng(5)
     pts, _ = handle_on_plate(radius, length, standoff, vertical, rng)

@@ -23,6 +23,7 @@ from tasks.synth.record import OBJECT_MODEL_POINTS
 from tasks.synth.scan import scan_object_model
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["bottle", "sliding-door", "microwave"])
 def test_scene_grasp_is_near_the_demonstration_and_executes(name: str) -> None:
     seed = {"bottle": 3, "sliding-door": 1, "microwave": 1}[name]

@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from bench.cases.grasp import handle_on_plate
 from tasks.grasp.object_model import build_object_model
 from tasks.grasp.planner import PlannerParams
 from tasks.grasp.slide import HOLD_BACKS_M, SLIDES_M, slide_candidates
+from tests.grasp.cases.grasp import handle_on_plate
 
 PALM = Rotation.from_matrix(np.column_stack([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]]))
 """Palm x along world x (a horizontal bar), approach (+z) along world +y towards the plate."""

@@ -56,6 +56,7 @@ def test_a_group_that_is_not_convex_keeps_its_k_means_pieces() -> None:
     assert all(Delaunay(piece).find_simplex(corner) < 0 for piece in pieces)
 
 
+@pytest.mark.slow
 def test_the_benchmarks_microwave_handle_is_planned_on_solid_posts_and_held() -> None:
     # bench/grasp.py --seed 11, microwave seed 1: on posts cut into k-means patches the planner's check held a grasp
     # slid 28 mm along the bar that let the exact handle turn 10° under the benchmark's program

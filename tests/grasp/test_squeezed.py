@@ -53,6 +53,7 @@ def test_poses_on_the_neighbourhood_limit_count_as_near() -> None:
     assert not is_near(beyond, params) and not is_reach(beyond, params)
 
 
+@pytest.mark.slow
 def test_door_lever_held_by_squeezing_fingers_and_executed() -> None:
     """Door seed 1, modelled as ``pbd synth`` records it and the learn stage builds it (the mount looked for along
     the demonstrated approach): the lever's arm is planned on as a cylinder and the grasp holds under the planner's

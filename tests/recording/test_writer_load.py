@@ -148,3 +148,29 @@ def test_loader_errors(store: Store, tmp_path: Path) -> None:
     (folder / "recording.json").write_text("{")
     with pytest.raises(RecordingError, match="cannot read ingested recording"):
         load_recording_folder(folder)
+
+
+def test_loader_names_a_corrupt_or_incomplete_table(store: Store) -> None:
+    folder = _fake_ingest(store, "00000000000000bb")
+    markers = folder / "markers.parquet"
+    markers.write_bytes(markers.read_bytes()[:40])
+    with pytest.raises(RecordingError, match=r"markers\.parquet: cannot read ingested table"):
+        load_recording_folder(folder)
+    folder = _fake_ingest(store, "00000000000000cc")
+    pq.write_table(pa.table({"frame": ["/wrist"], "stamp_ns": [1]}), folder / "poses.parquet")
+    with pytest.raises(RecordingError, match=r"poses\.parquet: cannot read ingested table"):
+        load_recording_folder(folder)
+
+
+def test_loader_keeps_nan_dropouts_and_sorts_by_stamp(store: Store) -> None:
+    folder = _fake_ingest(store, "00000000000000dd")
+    table = pa.Table.from_pydict(
+        {"marker": ["m"] * 3, "stamp_ns": [30, 10, 20], "x": [3.0, 1.0, float("nan")], "y": [0.0] * 3, "z": [0.0] * 3},
+        schema=MARKERS_SCHEMA,
+    )
+    pq.write_table(table, folder / "markers.parquet")
+    track = load_recording_folder(folder).markers["m"]
+    np.testing.assert_array_equal(track.stamps_ns, [10, 20, 30])
+    np.testing.assert_array_equal(track.points[:, 0], [1.0, np.nan, 3.0])
+    assert track.points.dtype == np.float64
+    assert track.stamps_ns.dtype == np.int64

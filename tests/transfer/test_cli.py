@@ -28,6 +28,7 @@ def _write_ply(path: Path, points: np.ndarray) -> Path:
     return path
 
 
+@pytest.mark.slow
 def test_cli_end_to_end(
     store: Store, stored_descriptor: Descriptor, bottle_model: shapes.ShapeModel, tmp_path: Path, capsys
 ) -> None:

@@ -26,7 +26,7 @@ def _rotation_angle_deg(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.degrees(np.arccos(np.clip((np.trace(a.T @ b) - 1.0) / 2.0, -1.0, 1.0))))
 
 
-@pytest.mark.parametrize(("scale", "seed"), [(0.8, 11), (1.3, 12)])
+@pytest.mark.parametrize(("scale", "seed"), [(0.8, 11), pytest.param(1.3, 12, marks=pytest.mark.slow)])
 def test_known_similarity_is_recovered(bottle_model: shapes.ShapeModel, scale: float, seed: int) -> None:
     rng = np.random.default_rng(seed)
     truth = Similarity(scale, shapes.random_rotation(rng), np.array([0.3, -0.2, 0.5]))
@@ -43,6 +43,7 @@ def test_known_similarity_is_recovered(bottle_model: shapes.ShapeModel, scale: f
     assert reg.crop_radius_m is not None
 
 
+@pytest.mark.slow
 def test_asymmetric_shape_recovers_the_full_rotation() -> None:
     rng = np.random.default_rng(21)
     mug = shapes.mug(rng, n=4000)
@@ -93,6 +94,7 @@ def test_descriptor_moves_with_the_object(bottle_model: shapes.ShapeModel) -> No
     assert np.array(info["transform"]).shape == (4, 4)
 
 
+@pytest.mark.slow
 def test_unrelated_target_is_poor_and_strict_refuses(bottle_model: shapes.ShapeModel) -> None:
     rng = np.random.default_rng(41)
     noise = rng.uniform(-0.2, 0.2, size=(1500, 3))
@@ -106,6 +108,7 @@ def test_unrelated_target_is_poor_and_strict_refuses(bottle_model: shapes.ShapeM
         transfer_descriptor(desc, bottle_model.points, noise, ref, params=ANY_SCALE, strict=True, rng=rng)
 
 
+@pytest.mark.slow
 def test_replan_grasp_plans_on_the_target(bottle_model: shapes.ShapeModel) -> None:
     rng = np.random.default_rng(51)
     target = bottle_model.points * 1.1
@@ -118,6 +121,7 @@ def test_replan_grasp_plans_on_the_target(bottle_model: shapes.ShapeModel) -> No
     assert not any("re-planning failed" in w for w in out.warnings)
 
 
+@pytest.mark.slow
 def test_replan_failure_warns_or_refuses_under_strict(
     bottle_model: shapes.ShapeModel, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -138,6 +142,7 @@ def test_replan_failure_warns_or_refuses_under_strict(
         transfer_descriptor(desc, pts, pts, ref, params=FAST, replan_grasp=True, strict=True, rng=rng)
 
 
+@pytest.mark.slow
 def test_replan_without_force_closure_keeps_the_carried_grasp(bottle_model: shapes.ShapeModel) -> None:
     rng = np.random.default_rng(54)
     desc = make_descriptor(bottle_model, "a" * 64)
@@ -185,6 +190,7 @@ def test_unusable_clouds_are_refused(points: np.ndarray, match: str) -> None:
         check_model(points, "source model")
 
 
+@pytest.mark.slow
 def test_flat_sheet_has_no_alignment_at_a_similar_objects_scale(bottle_model: shapes.ShapeModel) -> None:
     rng = np.random.default_rng(71)
     sheet = np.column_stack([rng.uniform(-0.1, 0.1, 3000), rng.uniform(-0.1, 0.1, 3000), np.zeros(3000)])

@@ -22,6 +22,7 @@ SEED_A, SEED_B = 4, 5
 """Bottle instances: cap radius 26 -> 15 mm, bottle 0.27 -> 0.17 m tall, placed 0.6 m apart."""
 
 
+@pytest.mark.slow
 def test_transferred_bottle_descriptor_executes_on_the_novel_bottle(tmp_path: Path) -> None:
     rec_a = synthesize("bottle", SEED_A, tmp_path / "a.mcap")
     rec_b = synthesize("bottle", SEED_B, tmp_path / "b.mcap")

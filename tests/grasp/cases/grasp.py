@@ -13,7 +13,6 @@ import numpy as np
 from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
-from bench.cases.exact import distance_to, exact_model, handle_shapes
 from tasks.arrays import Points
 from tasks.grasp.api import part_near
 from tasks.grasp.object_model import ObjectModel, build_object_model, labelled_model
@@ -21,6 +20,7 @@ from tasks.grasp.primitive_shape import PrimitiveShape
 from tasks.grasp.shake import Motion, ShakeParams
 from tasks.scenes.scene import Scene
 from tasks.scenes.surface import WorldShape, model_shapes, sample_shapes
+from tests.grasp.cases.exact import distance_to, exact_model, handle_shapes
 from tests.grasp.surface_sampling import sample_box_surface, sample_cylinder_surface
 
 Resample = Callable[[np.random.Generator], ObjectModel]
