@@ -68,7 +68,7 @@ def run(args: argparse.Namespace) -> int:
         if args.json:
             outcome = {"refused": True, "reasons": list(result.reasons), "candidates": info["candidates"]}
             sys.stdout.write(json.dumps(outcome, indent=2) + "\n")
-        msg = f"refused: {'; '.join(result.reasons)} (--accept-ambiguous writes the best guess)"
+        msg = f"refused (--accept-ambiguous writes the best guess): {'; '.join(result.reasons)}"
         raise TransferError(msg)
     store.put_model(target_points)
     put = store.put_descriptor(result.descriptor)

@@ -6,6 +6,10 @@ moments), plus a penalty ``beta`` per segment. PELT (Killick et al. 2012) search
 grid of ``grid_s`` cells with a minimum segment length; each change point is then refined at the full
 sample rate between its neighbours. Every marker shares the change points: a switch in one marker is a
 candidate for all. Segments are contiguous in time and their number is found by the search.
+
+Why not ruptures' ``Pelt``: it asks its cost for one span at a time, while this search scores every candidate of
+a step in one vectorised call; with the same cost, grid and penalty it finds the same change points about 7
+times slower (``bench/changepoint_peer.py``).
 """
 
 from __future__ import annotations
