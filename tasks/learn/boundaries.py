@@ -142,34 +142,43 @@ def _settled(level: FloatArray, tol: float) -> tuple[int, int]:
     return max(first, 0), min(last, len(level) - 1)
 
 
+def smoothed_coordinate(
+    prep: PreparedRecording, f: SegmentFit, min_samples: int
+) -> tuple[FloatArray, FloatArray, float] | None:
+    """The part's coordinate along primitive ``f`` over its span (object markers, else all of its markers) on the
+    densest marker's times, smoothed over ``SMOOTH_S``: times (s), smoothed values (rad or m; NaN where no marker
+    is seen) and their noise sigma; None with fewer than ``min_samples`` times."""
+    by_name = {tr.name: tr for tr in prep.tracks}
+    names = [n for n in f.markers if n not in prep.hand] or list(f.markers)
+    tracks = [by_name[n] for n in names]
+    grid_all = max(tracks, key=lambda tr: len(tr.t_s)).t_s
+    grid = grid_all[(grid_all >= f.t_start) & (grid_all < f.t_end)]
+    got = part_coordinate(f, tracks, grid) if len(grid) >= max(min_samples, 2) else None
+    if got is None:
+        return None
+    coord, noise = got
+    dt = float(np.median(np.diff(grid)))
+    width = max(1, round(SMOOTH_S / dt)) if dt > 0 else 1
+    return grid, smooth(coord, width), noise / float(np.sqrt(width))
+
+
 def trim_to_motion(prep: PreparedRecording, fits: list[SegmentFit]) -> list[SegmentFit]:
     """Each primitive's span shrunk to where its part moves: a pause before or after the motion, which the
     change-point search left inside the primitive (too short to pay for a segment of its own), becomes a still
     segment of the part's markers."""
-    by_name = {tr.name: tr for tr in prep.tracks}
     out: list[SegmentFit] = []
     for f in fits:
-        if f.kind not in ("rotation", "translation"):
-            out.append(f)
-            continue
-        names = [n for n in f.markers if n not in prep.hand] or list(f.markers)
-        tracks = [by_name[n] for n in names]
-        grid_all = max(tracks, key=lambda tr: len(tr.t_s)).t_s
-        grid = grid_all[(grid_all >= f.t_start) & (grid_all < f.t_end)]
-        got = part_coordinate(f, tracks, grid) if len(grid) >= MIN_SAMPLES else None
+        got = smoothed_coordinate(prep, f, MIN_SAMPLES) if f.kind in ("rotation", "translation") else None
         if got is None:
             out.append(f)
             continue
-        coord, noise = got
-        dt = float(np.median(np.diff(grid)))
-        width = max(1, round(SMOOTH_S / dt)) if dt > 0 else 1
-        level = smooth(coord, width)
+        grid, level, noise = got
         ok = np.isfinite(level)
         if ok.sum() < MIN_SAMPLES:
             out.append(f)
             continue
         t_ok = grid[ok]
-        first, last = _settled(level[ok], REST_SIGMAS * noise / np.sqrt(width))
+        first, last = _settled(level[ok], REST_SIGMAS * noise)
         start = float(t_ok[first]) if first > 0 else f.t_start
         end = float(t_ok[last]) if last < len(t_ok) - 1 else f.t_end
         if end - start < SMOOTH_S:

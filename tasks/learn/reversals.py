@@ -15,7 +15,7 @@ from dataclasses import replace
 import numpy as np
 
 from tasks.arrays import FloatArray
-from tasks.learn.boundaries import SMOOTH_S, part_coordinate, smooth
+from tasks.learn.boundaries import smoothed_coordinate
 from tasks.learn.chain import SegmentFit
 from tasks.learn.params import LearnParams
 from tasks.learn.prepare import PreparedRecording
@@ -72,25 +72,14 @@ def _piece(f: SegmentFit, t0: float, t1: float, travel: float) -> SegmentFit:
 
 def split_reversals(prep: PreparedRecording, fits: list[SegmentFit], params: LearnParams) -> list[SegmentFit]:
     """Every rotation or translation cut at the reversals of its part's motion (see the module docstring)."""
-    by_name = {tr.name: tr for tr in prep.tracks}
     out: list[SegmentFit] = []
     for f in fits:
-        if f.kind not in ("rotation", "translation"):
-            out.append(f)
-            continue
-        names = [n for n in f.markers if n not in prep.hand] or list(f.markers)
-        tracks = [by_name[n] for n in names]
-        grid_all = max(tracks, key=lambda tr: len(tr.t_s)).t_s
-        grid = grid_all[(grid_all >= f.t_start) & (grid_all < f.t_end)]
-        got = part_coordinate(f, tracks, grid) if len(grid) >= 3 else None
+        got = smoothed_coordinate(prep, f, 3) if f.kind in ("rotation", "translation") else None
         if got is None:
             out.append(f)
             continue
-        coord, noise = got
-        dt = float(np.median(np.diff(grid)))
-        width = max(1, round(SMOOTH_S / dt)) if dt > 0 else 1
-        level = smooth(coord, width)
-        threshold = max(_least_motion(f, params), REVERSAL_SIGMAS * noise / np.sqrt(width))
+        grid, level, noise = got
+        threshold = max(_least_motion(f, params), REVERSAL_SIGMAS * noise)
         turns = turning_points(level, threshold)
         if not turns:
             out.append(f)
