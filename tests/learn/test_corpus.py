@@ -16,7 +16,7 @@ from bench.learn_corpus.stress import DEV_SEEDS, stress_case
 from tasks.ingest.api import ingest_recording
 from tasks.recording.load import load_recording
 from tasks.store import Store
-from tests.conftest import REAL
+from tests.conftest import REAL, SHARED
 
 
 def _at(case: Case, name: str, t: float) -> np.ndarray:
@@ -108,7 +108,8 @@ def test_circle_fit_recovers_radius() -> None:
 
 
 @pytest.mark.skipif(not REAL.is_dir(), reason="needs ../shared/real")
-def test_real_truths() -> None:
+def test_real_truths(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("PBD_SHARED", str(SHARED))  # the shared data the tests found (tests/conftest.py)
     cases = {c.name: c for c in real_cases()}
     door = cases["articulation_models/door"]
     assert [np.sign(p.dir @ door.truth[0].dir) for p in door.truth] == [1, -1] * 4
