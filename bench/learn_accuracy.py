@@ -290,7 +290,6 @@ class CorpusErrors:
     cases: int = 0
     direction_deg: list[float] = field(default_factory=list)
     position_mm: list[float] = field(default_factory=list)
-    extent: list[float] = field(default_factory=list)
     wrong: list[str] = field(default_factory=list)
     seconds: float = 0.0
 

@@ -80,7 +80,7 @@ def _thin(points: Points, limit: int) -> Points:
     return points[idx]
 
 
-def _angles(points: Points, axis_point: Vector3, axis_dir: Vector3) -> FloatArray:
+def angles_about(points: Points, axis_point: Vector3, axis_dir: Vector3) -> FloatArray:
     """Unwrapped angles (rad) of points about the axis, right-hand rule about ``axis_dir``."""
     e1, e2 = perpendicular_basis(axis_dir)
     q = points - axis_point
@@ -193,7 +193,7 @@ def _finish(
     rss = 0.0
     n = 0
     for t, r in zip(tracks, radii, strict=True):
-        ang = _angles(t, axis_point, axis_dir)
+        ang = angles_about(t, axis_point, axis_dir)
         nets.append(net_change(ang))
         wts.append(max(r, 1e-9) * len(t))
         q = t - axis_point

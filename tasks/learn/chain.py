@@ -22,7 +22,7 @@ from tasks.errors import bounded
 from tasks.fit.geometry import perpendicular_basis, unit
 from tasks.fit.moments import span_residuals
 from tasks.fit.rigid import PartMotion, ScrewAxis, net_turn, part_motion, rss_about_axis, screw_axis
-from tasks.fit.rotation import RotationFit, fit_rotation
+from tasks.fit.rotation import RotationFit, angles_about, fit_rotation
 from tasks.fit.select import KINDS, Kind, SelectParams, choose_bic, choose_eigen, model_costs
 from tasks.fit.translation import TranslationFit, fit_translation
 from tasks.learn.params import LearnParams
@@ -165,11 +165,9 @@ SWEPT_PERCENTILE = 2.0
 def swept_angle(pts: list[Points], rf: RotationFit) -> float:
     """Widest arc (rad) that a marker's samples cover about the fitted axis: a door swung to and fro covers its
     arc whatever its net turn."""
-    e1, e2 = perpendicular_basis(rf.dir)
     out = 0.0
     for p in pts:
-        q = p - rf.pos
-        ang = np.unwrap(np.arctan2(q @ e2, q @ e1))
+        ang = angles_about(p, rf.pos, rf.dir)
         lo, hi = np.percentile(ang, [SWEPT_PERCENTILE, 100.0 - SWEPT_PERCENTILE])
         out = max(out, float(hi - lo))
     return out
