@@ -3,12 +3,14 @@ start), then a joint geometric least-squares refinement of one axis for every ma
 
 Each marker m keeps its own radius r_m and height h_m along the axis; all share the axis direction and a
 point on it. The residuals are (radial distance - r_m, axial coordinate - h_m) per sample, metres, under a
-robust soft-L1 loss with scale ``loss_scale_m``. The axis uncertainty comes from the Gauss-Newton covariance.
+robust soft-L1 loss with scale ``loss_scale_m`` (or the radial residuals' own spread, when wider). The axis
+uncertainty comes from the Gauss-Newton covariance.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -17,11 +19,18 @@ from tasks.arrays import FloatArray, Points, Vector3
 from tasks.fit.geometry import nearest_on_axis, net_change, perpendicular_basis, unit
 
 MAX_FIT_SAMPLES = 600
+"""Samples per marker used by the geometric refinement (evenly thinned beyond this; the fit barely moves)."""
 LINE_LIKE_RADIUS_RATIO = 20.0
 """A circle whose radius exceeds this many times the samples' spread sweeps under 3 degrees: a line, whose
 geometric refinement would only chase the radius to infinity; the algebraic fit is kept."""
 MAX_EVALUATIONS = 60
-"""Samples per marker used by the geometric refinement (evenly thinned beyond this; the fit barely moves)."""
+"""Residual evaluations of one geometric refinement (it converges in a few Gauss-Newton steps)."""
+LOSS_SCALE_SIGMAS = 3.0
+"""Soft-L1 loss scale in residual sigmas: residuals within it count as in least squares, beyond it as outliers.
+When the radial residuals' robust spread exceeds the sensor noise (a handle that slips, a door that sags), the scale
+follows the spread, so model misfit is averaged like noise instead of trimmed (which biases the radius)."""
+MAD_TO_SIGMA = 1.4826
+"""Median absolute residual to the standard deviation of a normal distribution."""
 
 
 @dataclass(frozen=True)
@@ -160,16 +169,24 @@ def _refine(
             parts.append(h - x[k + m + i])
         return np.concatenate(parts)
 
-    x0 = np.concatenate([np.zeros(k), r0, h0])
-    sol = least_squares(
-        residuals,
-        x0,
-        loss="soft_l1",
-        f_scale=max(loss_scale_m, 1e-6),
-        x_scale="jac",
-        max_nfev=MAX_EVALUATIONS,
-        tr_solver="lsmr",
-    )
+    def solve(x_start: FloatArray, scale_m: float) -> Any:
+        return least_squares(
+            residuals,
+            x_start,
+            loss="soft_l1",
+            f_scale=max(scale_m, 1e-6),
+            x_scale="jac",
+            max_nfev=MAX_EVALUATIONS,
+            tr_solver="lsmr",
+        )
+
+    sol = solve(np.concatenate([np.zeros(k), r0, h0]), loss_scale_m)
+    res = residuals(sol.x)
+    starts = np.cumsum([0] + [2 * len(t) for t in thin[:-1]])
+    radial = np.concatenate([res[i : i + len(t)] for i, t in zip(starts, thin, strict=True)])
+    spread = LOSS_SCALE_SIGMAS * MAD_TO_SIGMA * float(np.median(np.abs(radial)))
+    if spread > loss_scale_m:
+        sol = solve(sol.x, spread)
     d, o = unpack(sol.x)
     res = residuals(sol.x)
     dof = max(len(res) - len(sol.x), 1)
