@@ -1,4 +1,10 @@
-"""Noise level of a marker track, estimated from the data (second differences, robust MAD)."""
+"""Noise level of a marker track, estimated from the data (fourth differences at two lags, robust MAD).
+
+Fourth differences cancel any cubic motion, so a hand's acceleration and jerk do not pass for noise. Tracking noise
+is often correlated over tens of milliseconds (a camera tracker's filter), which hides part of its variance from
+differences of nearby samples; the ratio of the differences' variance at the lag L and 2 L gives that correlation
+(an exponential one, AR(1)), and the variance is corrected for it.
+"""
 
 from __future__ import annotations
 
@@ -11,61 +17,104 @@ MAD_TO_SIGMA = 1.4826
 
 
 NOISE_LAG_S = 1.0 / 30.0
-"""Time (s) between the samples whose second difference measures the noise: recorders and drivers upsample or
-re-send slower sensors (a camera at 30 Hz) by interpolation or repetition, which hides the noise between samples
-closer than a camera frame."""
+"""Time (s) between the samples whose differences measure the noise: recorders and drivers upsample or re-send
+slower sensors (a camera at 30 Hz) by interpolation or repetition, which hides the noise between samples closer
+than a camera frame."""
 
+MAX_CORRELATION_S = 0.1
+"""Longest noise correlation time (s) corrected for: the segmentation counts samples as independent at 10 Hz
+(``tasks.segment.tracks.INDEPENDENT_HZ``); slower wander is motion, not noise."""
 
 MIN_COVARIANCE_ROWS = 50
-"""Second differences needed before their spread is resolved into axes: fewer, and a short track's own
-accelerations along its motion pass for noise along that axis (the estimate stays isotropic)."""
+"""Differences needed before their spread is resolved into axes: fewer, and a short track's own accelerations
+along its motion pass for noise along that axis (the estimate stays isotropic)."""
+
+DIFFERENCE = np.array([1.0, -4.0, 6.0, -4.0, 1.0])
+"""Fourth-difference weights (they cancel cubic motion)."""
 
 
-def _lag(points: Points, t_s: FloatArray | None) -> int:
-    """Samples spanning ``NOISE_LAG_S`` (1 without times), at most what the track's length allows."""
-    lag = 1
+def _gain(r: FloatArray | float) -> FloatArray:
+    """Variance of a fourth difference over noise of unit variance whose correlation at the lag is ``r`` and
+    ``r**k`` at k lags (AR(1)); 70 for white noise."""
+    return np.asarray(70.0 - 112.0 * r + 56.0 * r**2 - 16.0 * r**3 + 2.0 * r**4)
+
+
+def _lag(n: int, t_s: FloatArray | None) -> tuple[int, float]:
+    """Samples spanning ``NOISE_LAG_S`` (1 without times), at most what a track of ``n`` samples allows for
+    differences at twice the lag, and the lag in seconds (``NOISE_LAG_S`` without times)."""
+    lag, dt = 1, NOISE_LAG_S
     if t_s is not None and len(t_s) > 1:
-        dt = float(np.median(np.diff(t_s)))
-        lag = max(1, round(NOISE_LAG_S / dt)) if dt > 0 else 1
-    return max(1, min(lag, (len(points) - 3) // 2))
+        step = float(np.median(np.diff(t_s)))
+        if step > 0:
+            lag, dt = max(1, round(NOISE_LAG_S / step)), step
+    lag = max(1, min(lag, (n - 1) // (2 * len(DIFFERENCE))))
+    return lag, lag * dt
+
+
+def _differences(points: Points, lag: int) -> FloatArray:
+    """(n - 4 lag, 3) fourth differences (m)."""
+    n = len(points) - lag * (len(DIFFERENCE) - 1)
+    out = np.zeros((max(n, 0), 3))
+    for k, w in enumerate(DIFFERENCE):
+        out += w * points[k * lag : k * lag + n]
+    return out
+
+
+def _robust_var(d: FloatArray) -> FloatArray:
+    """Per-column variance (m^2) from the median absolute deviation."""
+    mad = np.median(np.abs(d - np.median(d, axis=0)), axis=0)
+    out: FloatArray = (MAD_TO_SIGMA * mad) ** 2
+    return out
+
+
+def _correlation_gain(points: Points, lag: int, lag_s: float) -> float:
+    """The fourth difference's variance gain over this track's noise: 70 for white noise, less when the noise is
+    correlated (AR(1) correlation at the lag fitted to the variance ratio between lags 2 L and L)."""
+    if len(points) < 2 * lag * (len(DIFFERENCE) - 1) + 3:
+        return 70.0
+    near = float(_robust_var(_differences(points, lag)).sum())
+    far = float(_robust_var(_differences(points, 2 * lag)).sum())
+    if near <= 0.0 or far <= near:
+        return 70.0
+    rs = np.linspace(0.0, np.exp(-lag_s / MAX_CORRELATION_S), 256)
+    ratio = _gain(rs**2) / _gain(rs)
+    r = float(rs[min(int(np.searchsorted(ratio, far / near)), len(rs) - 1)])
+    return float(_gain(r))
 
 
 def noise_covariance(points: Points, t_s: FloatArray | None = None) -> FloatArray:
-    """(3, 3) covariance (m^2, world axes) of a track's white noise, anisotropic where it is (a camera's depth).
+    """(3, 3) covariance (m^2, world axes) of a track's noise, anisotropic where it is (a camera's depth).
 
-    The second differences over ``NOISE_LAG_S`` (covariance 6 Sigma for white noise) are turned to the principal
-    axes of their central 90 % and scaled per axis by the median absolute deviation, which motion and outliers
-    do not move; isotropic below ``MIN_COVARIANCE_ROWS``. Zero for fewer than 5 samples. (scikit-learn's
-    MinCovDet estimates the same robustly but costs far more per marker: ``bench/noise_estimate.py``.)
+    The fourth differences over ``NOISE_LAG_S`` are turned to the principal axes of their central 90 % and scaled
+    per axis by the median absolute deviation, which motion and outliers do not move, over the correlation gain;
+    isotropic below ``MIN_COVARIANCE_ROWS``. Zero for fewer than 5 samples. (scikit-learn's MinCovDet estimates
+    the same robustly but costs far more per marker: ``bench/noise_estimate.py``.)
     """
-    if len(points) < 5:
+    if len(points) < len(DIFFERENCE):
         return np.zeros((3, 3))
-    lag = _lag(points, t_s)
-    d2 = points[2 * lag :] - 2.0 * points[lag:-lag] + points[: -2 * lag]
-    if len(d2) < MIN_COVARIANCE_ROWS:
+    lag, lag_s = _lag(len(points), t_s)
+    d = _differences(points, lag)
+    if len(d) < MIN_COVARIANCE_ROWS:
         return np.eye(3) * noise_sigma(points, t_s) ** 2
-    d2 = d2 - np.median(d2, axis=0)
-    norms = np.linalg.norm(d2, axis=1)
-    core = d2[norms <= np.percentile(norms, 90.0)]
-    _, axes = np.linalg.eigh(core.T @ core if len(core) >= 3 else d2.T @ d2)
-    proj = d2 @ axes
-    mad = np.median(np.abs(proj - np.median(proj, axis=0)), axis=0)
-    var = (MAD_TO_SIGMA * mad) ** 2 / 6.0
+    d = d - np.median(d, axis=0)
+    norms = np.linalg.norm(d, axis=1)
+    core = d[norms <= np.percentile(norms, 90.0)]
+    _, axes = np.linalg.eigh(core.T @ core if len(core) >= 3 else d.T @ d)
+    var = _robust_var(d @ axes) / _correlation_gain(points, lag, lag_s)
     out: FloatArray = (axes * var) @ axes.T
     return out
 
 
 def noise_sigma(points: Points, t_s: FloatArray | None = None) -> float:
-    """Per-axis white-noise standard deviation (metres) of an (n, 3) track from its second differences.
+    """Per-axis noise standard deviation (metres) of an (n, 3) track from its fourth differences.
 
-    For white noise of standard deviation s the second difference p[i+L] - 2 p[i] + p[i-L] has standard
-    deviation s * sqrt(6); smooth motion adds only acceleration * (L dt)^2, which the median ignores. The lag L
+    For white noise of standard deviation s the fourth difference over a lag L has standard deviation
+    s * sqrt(70); smooth motion adds only its fourth derivative * (L dt)^4, which the median ignores. The lag L
     spans ``NOISE_LAG_S`` when the times ``t_s`` are given (one sample otherwise). Returns 0.0 for fewer than 5
     samples.
     """
-    if len(points) < 5:
+    if len(points) < len(DIFFERENCE):
         return 0.0
-    lag = _lag(points, t_s)
-    d2 = points[2 * lag :] - 2.0 * points[lag:-lag] + points[: -2 * lag]
-    mad = np.median(np.abs(d2 - np.median(d2, axis=0)), axis=0)
-    return float(np.sqrt(np.mean((MAD_TO_SIGMA * mad) ** 2)) / np.sqrt(6.0))
+    lag, lag_s = _lag(len(points), t_s)
+    var = float(np.mean(_robust_var(_differences(points, lag))))
+    return float(np.sqrt(var / _correlation_gain(points, lag, lag_s)))

@@ -146,8 +146,7 @@ def fit_span(
     angle = swept_angle(pts, rf)
     if motion is not None:
         costs += evidence * orientation_costs(motion, rf.dir, sigma, params.undefined_nats)
-        turn = motion.rotvecs @ rf.dir
-        angle = max(float(np.linalg.norm(net_turn(motion))), float(np.ptp(turn)) if len(turn) else 0.0)
+        angle = max(float(np.linalg.norm(net_turn(motion))), angle)
     kind = force or choose_bic(costs, angle, sel)
     scores: dict[str, float] = {str(k): float(c) for k, c in zip(KINDS, costs, strict=True)}
     return SegmentFit(kind, t0, t1, names, still, rf, tf, scores, tf.eigenvalues, _extent(kind, rf, tf))

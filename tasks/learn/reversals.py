@@ -84,7 +84,8 @@ def split_reversals(prep: PreparedRecording, fits: list[SegmentFit], params: Lea
         if not turns:
             out.append(f)
             continue
-        cuts = [0, *turns, len(grid) - 1]
+        finite = np.flatnonzero(np.isfinite(level))
+        cuts = [int(finite[0]), *turns, int(finite[-1])]
         times = [f.t_start, *(float(grid[i]) for i in turns), f.t_end]
         for k in range(len(cuts) - 1):
             travel = float(level[cuts[k + 1]] - level[cuts[k]])

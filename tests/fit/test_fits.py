@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tasks.fit.geometry import angle_between_axes, point_line_distance
 from tasks.fit.moments import prefix_moments, span_residuals
-from tasks.fit.noise import noise_sigma
+from tasks.fit.noise import noise_covariance, noise_sigma
 from tasks.fit.rotation import circle_from_points_algebraic, fit_rotation
 from tasks.fit.select import SelectParams, choose_bic, choose_eigen, eigenvalue_ratio, model_costs
 from tasks.fit.translation import fit_translation
@@ -102,11 +103,30 @@ def test_prefix_moment_costs_equal_direct_sums() -> None:
         assert res.circle[k] < 2.0 * (b - a) * 3 * 0.0005**2
 
 
-def test_noise_sigma_from_second_differences() -> None:
+def test_noise_sigma_from_fourth_differences() -> None:
     rng = np.random.default_rng(6)
     pts = _placed(_arc(rng, 0.3, 1.0, 0.001, n=3000))
     assert 0.0009 < noise_sigma(pts) < 0.0011
     assert noise_sigma(pts[:4]) == 0.0
+
+
+@pytest.mark.parametrize(("hz", "corr_s"), [(30.0, 0.05), (120.0, 0.03), (240.0, 0.08)])
+def test_noise_correlated_in_time_is_seen_in_full(hz: float, corr_s: float) -> None:
+    """A camera tracker's filtered noise (AR(1), 2 mm, correlated over tens of ms) on a still marker and on one
+    that slides 0.4 m: the estimate is the noise's full standard deviation, not the part between samples."""
+    rng = np.random.default_rng(11)
+    t = np.arange(0.0, 20.0, 1.0 / hz)
+    rho = np.exp(-(1.0 / hz) / corr_s)
+    noise = np.zeros((len(t), 3))
+    white = rng.normal(0.0, 0.002, (len(t), 3))
+    noise[0] = white[0]
+    for k in range(1, len(t)):
+        noise[k] = rho * noise[k - 1] + np.sqrt(1.0 - rho**2) * white[k]
+    s = np.clip((t - 8.0) / 3.0, 0.0, 1.0)
+    slide = np.outer(0.4 * (10 * s**3 - 15 * s**4 + 6 * s**5), [1.0, 0.0, 0.0])
+    for pts in (noise, slide + noise):
+        assert 0.0015 < noise_sigma(pts, t) < 0.0027
+        assert 0.0015**2 < np.trace(noise_covariance(pts, t)) / 3.0 < 0.0027**2
 
 
 def test_model_choice_bic_and_eq3() -> None:
