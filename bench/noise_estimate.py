@@ -1,5 +1,5 @@
 """Per-marker noise covariance: ``tasks.fit.noise.noise_covariance`` beside scikit-learn's MinCovDet on the same
-second differences (time per marker and the estimated per-axis sigmas against the truth).
+fourth differences (time per marker and the estimated per-axis sigmas against the truth).
 
 Development: isotropic and camera-like (depth 8x) noise at 100 Hz, seed 0; held out: seed 1 at 240 Hz.
 
@@ -17,7 +17,7 @@ from sklearn.covariance import MinCovDet
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from tasks.fit.noise import NOISE_LAG_S, noise_covariance
+from tasks.fit.noise import DIFFERENCE, NOISE_LAG_S, noise_covariance
 
 
 def _track(rng: np.random.Generator, hz: float, sigmas: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -30,8 +30,9 @@ def _track(rng: np.random.Generator, hz: float, sigmas: np.ndarray) -> tuple[np.
 
 def _mincovdet(points: np.ndarray, t: np.ndarray) -> np.ndarray:
     lag = max(1, round(NOISE_LAG_S / float(np.median(np.diff(t)))))
-    d2 = points[2 * lag :] - 2.0 * points[lag:-lag] + points[: -2 * lag]
-    out: np.ndarray = MinCovDet(random_state=0).fit(d2).covariance_ / 6.0
+    n = len(points) - lag * (len(DIFFERENCE) - 1)
+    d4 = sum(w * points[k * lag : k * lag + n] for k, w in enumerate(DIFFERENCE))
+    out: np.ndarray = MinCovDet(random_state=0).fit(d4).covariance_ / float(np.sum(DIFFERENCE**2))
     return out
 
 
