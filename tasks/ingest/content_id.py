@@ -13,7 +13,6 @@ import hashlib
 import stat
 import threading
 from collections.abc import Iterator
-from concurrent.futures import Future, ThreadPoolExecutor
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -77,15 +76,41 @@ def recording_id_of(source: Path, stop: threading.Event | None = None) -> str:
     return h.hexdigest()[:CONTENT_ID_HEX]
 
 
-@contextmanager
-def content_id_beside(source: Path) -> Iterator[Future[str]]:
-    """Hash ``source`` on a second thread for the duration of the block; ``.result()`` gives the id (or raises
-    its ``RecordingError``). Leaving the block early (an exception) abandons the hashing and waits for the
-    thread, so no file stays open."""
-    stop = threading.Event()
-    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="pbd-content-id") as pool:
-        pending = pool.submit(recording_id_of, Path(source), stop)
+class PendingId:
+    """The content id of ``source`` being hashed on a second thread (started at construction)."""
+
+    def __init__(self, source: Path) -> None:
+        self._stop = threading.Event()
+        self._id = ""
+        self._error: Exception | None = None
+        self._thread = threading.Thread(target=self._run, args=(Path(source),), name="pbd-content-id", daemon=True)
+        self._thread.start()
+
+    def _run(self, source: Path) -> None:
         try:
-            yield pending
-        finally:
-            stop.set()
+            self._id = recording_id_of(source, self._stop)
+        except Exception as err:  # handed to the caller by result()
+            self._error = err
+
+    def result(self) -> str:
+        """Wait for the id; raises what the hashing raised (a ``RecordingError`` for an unreadable file)."""
+        self._thread.join()
+        if self._error is not None:
+            raise self._error
+        return self._id
+
+    def abandon(self) -> None:
+        """Stop hashing at the next block and wait for the thread (the file is closed when this returns)."""
+        self._stop.set()
+        self._thread.join()
+
+
+@contextmanager
+def content_id_beside(source: Path) -> Iterator[PendingId]:
+    """Hash ``source`` on a second thread for the duration of the block; ``.result()`` gives the id. Leaving the
+    block early (an exception) abandons the hashing and waits for the thread, so no file stays open."""
+    pending = PendingId(source)
+    try:
+        yield pending
+    finally:
+        pending.abandon()
