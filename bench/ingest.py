@@ -84,6 +84,9 @@ ID_ONLY = (
 """What RECORDING.md's content id (SHA-256 of every byte) costs by itself: pbd hashes it on a second thread
 while it reads, so on a camera-heavy file this is the floor of pbd's CPU time."""
 
+START_ONLY = "import flows.cli, flows.commands.ingest"
+"""What ``pbd ingest`` costs before it opens the file: the interpreter, numpy, pyarrow and pbd's modules."""
+
 
 # -- recordings ------------------------------------------------------------------------------------
 def _templates(ros1: bool) -> tuple[bytes, bytes]:
@@ -278,6 +281,8 @@ def run_case(
         sys.exit(f"{name}: tools disagree on the marker rows: {[(r[0], r[4]) for r in rows]}")
     wall, cpu, rss, _ = measure([str(PY), "-c", ID_ONLY, str(path)], repeats)
     rows.append(("of pbd: the id alone (SHA-256 of bytes)", wall, cpu, rss, ""))
+    wall, cpu, rss, _ = measure([str(PY), "-c", START_ONLY], repeats)
+    rows.append(("of pbd: start-up alone (imports)", wall, cpu, rss, ""))
     print(f"\n{name}: {size / 1e9:.2f} GB, {counts.pop()} marker rows")
     print(f"| {'tool':<40} | {'wall s':>7} | {'CPU s':>6} | {'peak RSS MB':>11} |")
     print(f"|{'-' * 42}|{'-' * 9}|{'-' * 8}|{'-' * 13}|")
