@@ -34,8 +34,8 @@ from pathlib import Path
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
-PY = REPO / ".venv" / "bin" / "python"
-PBD = REPO / ".venv" / "bin" / "pbd"
+PY = Path(sys.executable)
+PBD = PY.with_name("pbd")
 TIME = "/usr/bin/time"
 MARKER_TOPICS = ("/mocap/m0", "/mocap/m1", "/mocap/m2", "/mocap/m3")
 CAMERA_TOPIC = "/camera/image_raw"
@@ -78,10 +78,14 @@ print(len(rows))
 
 
 ID_ONLY = (
-    "import sys; from pathlib import Path; from tasks.ingest.api import recording_id_of; "
+    "import sys; from pathlib import Path; from tasks.ingest.content_id import recording_id_of; "
     "print(recording_id_of(Path(sys.argv[1])))"
 )
-"""What RECORDING.md's content id costs by itself: pbd hashes every byte before it reads the recording."""
+"""What RECORDING.md's content id (SHA-256 of every byte) costs by itself: pbd hashes it on a second thread
+while it reads, so on a camera-heavy file this is the floor of pbd's CPU time."""
+
+START_ONLY = "import flows.cli, flows.commands.ingest"
+"""What ``pbd ingest`` costs before it opens the file: the interpreter, numpy, pyarrow and pbd's modules."""
 
 
 # -- recordings ------------------------------------------------------------------------------------
@@ -277,6 +281,8 @@ def run_case(
         sys.exit(f"{name}: tools disagree on the marker rows: {[(r[0], r[4]) for r in rows]}")
     wall, cpu, rss, _ = measure([str(PY), "-c", ID_ONLY, str(path)], repeats)
     rows.append(("of pbd: the id alone (SHA-256 of bytes)", wall, cpu, rss, ""))
+    wall, cpu, rss, _ = measure([str(PY), "-c", START_ONLY], repeats)
+    rows.append(("of pbd: start-up alone (imports)", wall, cpu, rss, ""))
     print(f"\n{name}: {size / 1e9:.2f} GB, {counts.pop()} marker rows")
     print(f"| {'tool':<40} | {'wall s':>7} | {'CPU s':>6} | {'peak RSS MB':>11} |")
     print(f"|{'-' * 42}|{'-' * 9}|{'-' * 8}|{'-' * 13}|")
@@ -320,6 +326,8 @@ def main() -> None:
     if free < need:
         sys.exit(f"needs {need / 1e9:.1f} GB free for the generated recordings, {free / 1e9:.1f} GB are")
     print(f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
+    # pbd's bytecode compiled once, as in an installed package (the peers' modules in site-packages have theirs)
+    subprocess.run([str(PY), "-m", "compileall", "-q", "tasks", "flows", "schemas"], cwd=REPO, check=True)
     with tempfile.TemporaryDirectory(prefix="pbd-bench-ingest-", dir=args.dir) as tmp_s:
         tmp = Path(tmp_s)
         (tmp / "mcap_reader.py").write_text(BASELINE_MCAP)

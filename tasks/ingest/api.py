@@ -9,10 +9,8 @@ rest; ``extract``), and writes ``markers.parquet``, ``poses.parquet``, ``object_
 
 from __future__ import annotations
 
-import errno
 import hashlib
 import json
-import stat
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -35,10 +33,13 @@ from schemas.tables import (
 from tasks.errors import NAME_CHARS, RecordingError, TopicMapError, one_line
 from tasks.ingest import roles as rl
 from tasks.ingest.containers import KNOWN_ENCODINGS, read_recording
+from tasks.ingest.content_id import check_source, content_id_beside, recording_id_of
 from tasks.ingest.extract import Extracted, MarkerChunk, PoseChunk, child_frames, dense_cloud, extract_topic
 from tasks.ingest.object_model import load_object_model
 from tasks.ingest.raw import RawRecording
 from tasks.store import Store
+
+__all__ = ["IngestResult", "assign_roles", "ingest_recording", "recording_id_of", "recording_key"]
 
 
 @dataclass(frozen=True)
@@ -50,48 +51,6 @@ class IngestResult:
     created: bool
     lost_messages: int
     warnings: tuple[str, ...]
-
-
-def _check_source(source: Path) -> None:
-    """A recording must be a regular file or a folder: anything else is named for what it is."""
-    try:
-        st = source.stat()
-    except FileNotFoundError:
-        what = "a dangling symbolic link" if source.is_symlink() else "no such file or folder"
-        raise RecordingError(source, what) from None
-    except OSError as err:
-        if err.errno == errno.ELOOP:
-            raise RecordingError(source, "a symbolic link loop, not a recording") from err
-        msg = f"cannot read it ({err.strerror})"
-        raise RecordingError(source, msg) from err
-    kinds = {stat.S_ISFIFO: "a FIFO (named pipe)", stat.S_ISSOCK: "a socket", stat.S_ISCHR: "a character device",
-             stat.S_ISBLK: "a block device"}  # fmt: skip
-    for test, what in kinds.items():
-        if test(st.st_mode):
-            msg = f"{what}, not a recording file or folder"
-            raise RecordingError(source, msg)
-
-
-def recording_id_of(source: Path) -> str:
-    """First 16 hex digits of the SHA-256 of the recording's bytes (a folder: its files in name order)."""
-    source = Path(source)
-    _check_source(source)
-    h = hashlib.sha256()
-    if source.is_dir():
-        files = sorted((p for p in source.rglob("*") if p.is_file()), key=lambda p: p.relative_to(source).as_posix())
-    else:
-        files = [source]
-    buf = bytearray(1 << 20)
-    view = memoryview(buf)
-    for f in files:
-        try:
-            with f.open("rb", buffering=0) as fh:
-                while n := fh.readinto(buf):
-                    h.update(view[:n])
-        except OSError as err:
-            msg = f"cannot read it ({err.strerror})"
-            raise RecordingError(f, msg) from err
-    return h.hexdigest()[:16]
 
 
 MAP_KEY_HEX = 8
@@ -165,6 +124,16 @@ def assign_roles(raw: RawRecording, tmap: rl.TopicMap | None) -> tuple[dict[str,
     return roles, warnings
 
 
+_NUMPY_OF = {pa.int64(): np.int64, pa.float64(): np.float64, pa.float32(): np.float32}
+
+
+def _numeric_column(values: Any, kind: Any) -> Any:
+    """A pyarrow array of type ``kind`` sharing the buffer of ``values`` (1-D, no nulls). ``pa.array`` on an
+    ndarray would first import ``numpy.ma`` to test for a masked array, a tenth of a small ingest's time."""
+    arr = np.ascontiguousarray(values, dtype=_NUMPY_OF[kind])
+    return pa.Array.from_buffers(kind, len(arr), [None, pa.py_buffer(arr)])
+
+
 def _markers_table(chunks: list[MarkerChunk]) -> Any:
     merged: dict[str, list[MarkerChunk]] = {}
     for c in chunks:
@@ -198,7 +167,7 @@ def _markers_table(chunks: list[MarkerChunk]) -> Any:
     marker = kind.from_buffers(len(idx), pa.py_buffer(offsets), pa.py_buffer(data))
     if wide:  # rare: needs pyarrow.compute (slow to import) for the cast
         marker = marker.cast(pa.string())
-    cols = [marker, pa.array(stamps, pa.int64())] + [pa.array(np.ascontiguousarray(xyz[:, i])) for i in range(3)]
+    cols = [marker, _numeric_column(stamps, pa.int64())] + [_numeric_column(xyz[:, i], pa.float64()) for i in range(3)]
     return pa.Table.from_arrays(cols, schema=MARKERS_SCHEMA)
 
 
@@ -213,8 +182,8 @@ def _poses_table(chunks: list[PoseChunk]) -> Any:
         vals.append(np.hstack([c.xyz, c.quat])[order])
     st = np.concatenate(stamps) if stamps else np.zeros(0, np.int64)
     v = np.concatenate(vals) if vals else np.zeros((0, 7))
-    cols = [pa.array(frames, pa.string()), pa.array(roles, pa.string()), pa.array(st, pa.int64())]
-    cols += [pa.array(np.ascontiguousarray(v[:, i])) for i in range(7)]
+    cols = [pa.array(frames, pa.string()), pa.array(roles, pa.string()), _numeric_column(st, pa.int64())]
+    cols += [_numeric_column(v[:, i], pa.float64()) for i in range(7)]
     return pa.Table.from_arrays(cols, schema=POSES_SCHEMA)
 
 
@@ -244,7 +213,9 @@ def ingest_recording(
 
     The store key is the content id with the topic map's (``recording_key``): the same recording read with
     another map (or none) is another entry, and an entry is never rewritten. Only the topics some role can use
-    are decoded; the others are counted (and skipped unread where the container allows).
+    are decoded; the others are counted (and skipped unread where the container allows). The content id is
+    hashed on a second thread while the raw messages are read (``content_id_beside``), so a recording already
+    in the store is read but not decoded or written.
     Raises ``RecordingError`` (bad or unreadable recording, naming the file and topic), ``TopicMapError``
     (bad ``topics`` map). With ``recover``, a truncated or damaged MCAP, ROS 1 bag or rosbag2 keeps its intact
     messages before the damage and the loss is reported in ``lost_messages`` (exact where rosbag2 metadata counts
@@ -253,7 +224,10 @@ def ingest_recording(
 
     source = Path(source)
     tmap = rl.parse_topic_map(Path(topics)) if topics is not None else None
-    content_id = recording_id_of(source)
+    check_source(source)
+    with content_id_beside(source) as pending:
+        raw = read_recording(source, recover=recover, want=rl.wanted(tmap))
+        content_id = pending.result()
     rec_id = recording_key(content_id, tmap)
     final = store.recording_dir(rec_id)
     if store.has_recording(rec_id):
@@ -264,7 +238,6 @@ def ingest_recording(
             if stored.get("sha256") != sha:
                 notes = (f"{source}: already ingested as {rec_id} with another object model; kept the stored one",)
         return IngestResult(rec_id, final, False, 0, notes)
-    raw = read_recording(source, recover=recover, want=rl.wanted(tmap))
     if raw.message_count == 0:
         n = len(raw.topics)
         what = f"empty: no messages ({n} topic{'s' if n != 1 else ''} without messages)" if n else "empty: no messages"
@@ -314,7 +287,7 @@ def ingest_recording(
         if ex.object_model is not None:
             m = ex.object_model
             table = pa.Table.from_arrays(
-                [pa.array(np.ascontiguousarray(m[:, i])) for i in range(3)], schema=OBJECT_MODEL_SCHEMA
+                [_numeric_column(m[:, i], pa.float32()) for i in range(3)], schema=OBJECT_MODEL_SCHEMA
             )
             pq.write_table(table, stage / OBJECT_MODEL_FILE)
         (stage / RECORDING_FILE).write_text(json.dumps(info, indent=2) + "\n")

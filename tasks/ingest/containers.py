@@ -20,7 +20,6 @@ import tempfile
 from pathlib import Path, PurePosixPath, PureWindowsPath
 from typing import Any
 
-import yaml
 import zstandard
 
 from tasks.errors import RecordingError, bounded
@@ -174,6 +173,8 @@ def _read_bag(path: Path, recover: bool, want: Want) -> RawRecording:
 
 # -- rosbag2 ----------------------------------------------------------------------------------------
 def _metadata(path: Path) -> dict[str, Any]:
+    import yaml  # noqa: PLC0415 (imported on first use: only for rosbag2 folders)
+
     meta_path = path / "metadata.yaml"
     if not meta_path.is_file():
         files = sorted(p.name for p in path.iterdir()) if path.is_dir() else []

@@ -12,8 +12,6 @@ import json
 from collections.abc import Iterator
 from typing import Any
 
-from rosbags.typesys import Stores, get_types_from_idl, get_types_from_msg, get_typestore
-
 from tasks.errors import RecordingError
 from tasks.ingest.raw import RawTopic
 
@@ -22,6 +20,12 @@ _IDL_SEP = "=" * 80
 
 def typestore_for(topic: RawTopic, path: str) -> Any:
     """A rosbags typestore holding ``topic.msgtype`` and its dependencies; raises ``RecordingError``."""
+    from rosbags.typesys import (  # noqa: PLC0415 (imported on first use: bulk-decoded types never need it)
+        Stores,
+        get_types_from_idl,
+        get_types_from_msg,
+        get_typestore,
+    )
 
     if not topic.schema:
         store = get_typestore(Stores.ROS1_NOETIC if topic.encoding == "ros1" else Stores.LATEST)

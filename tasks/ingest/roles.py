@@ -8,8 +8,6 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import yaml
-
 from tasks.errors import TopicMapError
 from tasks.ingest.selection import Keep, Want
 
@@ -110,6 +108,7 @@ def wanted(tmap: TopicMap | None) -> Want:
 
 def parse_topic_map(path: Path) -> TopicMap:
     """Read a topic map YAML: ``markers: [..]``, ``wrist: t``, ``object_model: t``, ``meta: t``, ``ignore: [..]``."""
+    import yaml  # noqa: PLC0415 (imported on first use: only with a topic map)
 
     try:
         doc = yaml.safe_load(path.read_text())
