@@ -92,7 +92,7 @@ def _departure(t: FloatArray, c: FloatArray, rest: FloatArray, noise: float) -> 
 
 def refine_boundaries(prep: PreparedRecording, fits: list[SegmentFit]) -> list[SegmentFit]:
     """Each primitive's start and end (s) moved into the neighbouring rests of its part up to where the part is
-    seen to leave or reach them; the still segments beside it shrink to match."""
+    seen to leave or reach them; the still segments it reaches into shrink to match (and go when nothing is left)."""
     by_name = {tr.name: tr for tr in prep.tracks}
     out = list(fits)
     for i, f in enumerate(fits):
@@ -125,11 +125,15 @@ def refine_boundaries(prep: PreparedRecording, fits: list[SegmentFit]) -> list[S
             found = _departure(grid[after], level[after], rest, noise)
             end = max(end, found) if found is not None else end
         out[i] = replace(f, t_start=float(start), t_end=float(end))
-        if i > 0 and out[i - 1].kind == "still" and out[i - 1].t_end == f.t_start:
-            out[i - 1] = replace(out[i - 1], t_end=float(start))
-        if i + 1 < len(out) and out[i + 1].kind == "still" and out[i + 1].t_start == f.t_end:
-            out[i + 1] = replace(out[i + 1], t_start=float(end))
-    return out
+        k = i - 1
+        while k >= 0 and out[k].kind == "still" and out[k].t_end > start:
+            out[k] = replace(out[k], t_end=max(float(start), out[k].t_start))
+            k -= 1
+        k = i + 1
+        while k < len(out) and out[k].kind == "still" and out[k].t_start < end:
+            out[k] = replace(out[k], t_start=min(float(end), out[k].t_end))
+            k += 1
+    return [f for f in out if f.kind != "still" or f.t_end > f.t_start]
 
 
 def _settled(level: FloatArray, tol: float) -> tuple[int, int]:

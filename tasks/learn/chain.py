@@ -21,7 +21,7 @@ from tasks.arrays import FloatArray, Points
 from tasks.errors import bounded
 from tasks.fit.geometry import perpendicular_basis, unit
 from tasks.fit.moments import span_residuals
-from tasks.fit.rigid import PartMotion, ScrewAxis, net_turn, part_motion, rss_about_axis, screw_axis
+from tasks.fit.rigid import PartMotion, ScrewAxis, part_motion, rss_about_axis, screw_axis
 from tasks.fit.rotation import RotationFit, angles_about, fit_rotation
 from tasks.fit.select import KINDS, Kind, SelectParams, choose_bic, choose_eigen, model_costs
 from tasks.fit.translation import TranslationFit, fit_translation
@@ -146,8 +146,9 @@ def fit_span(
     angle = swept_angle(pts, rf)
     if motion is not None:
         costs += evidence * orientation_costs(motion, rf.dir, sigma, params.undefined_nats)
-        angle = max(float(np.linalg.norm(net_turn(motion))), angle)
-    kind = force or choose_bic(costs, angle, sel)
+    kind = choose_bic(costs, angle, sel) if force is None else force
+    if kind == "rotation" and angle < sel.min_rotation_rad:
+        kind = "translation"  # a forced rotation too: an arc too short to tell from a line is a line
     scores: dict[str, float] = {str(k): float(c) for k, c in zip(KINDS, costs, strict=True)}
     return SegmentFit(kind, t0, t1, names, still, rf, tf, scores, tf.eigenvalues, _extent(kind, rf, tf))
 
@@ -221,14 +222,28 @@ def _extent(kind: Kind, rf: RotationFit | None, tf: TranslationFit | None) -> fl
 
 MERGE_NOISE_SIGMAS = 2.0
 """A union's fit may exceed the mechanism tolerance by this many times the sensor noise (3-D rms) of its markers."""
+PIECE_RMS_FACTOR = 3.0
+"""A union's fit may depart from an ideal line or circle at most this many times as far as its pieces' own fits
+do: a wobbling door cut into arcs fits one circle about as well as its arcs; a knob's turn and the door's swing
+after it, each fitted to a fraction of a millimetre, do not fit one circle within centimetres."""
 
 
-def merge_tolerance(prep: PreparedRecording, union: SegmentFit, mechanism_rms_m: float) -> float:
+def _fit_rms(f: SegmentFit) -> float:
+    """RMS residual (m) of a primitive's own fit (0 for other kinds)."""
+    fit = f.rotation if f.kind == "rotation" else f.translation if f.kind == "translation" else None
+    return fit.rms_m if fit is not None else 0.0
+
+
+def merge_tolerance(
+    prep: PreparedRecording, union: SegmentFit, parts: list[SegmentFit], mechanism_rms_m: float
+) -> float:
     """Largest rms (m) of one primitive's fit over a union of segments: the mechanism's own departure from an ideal
-    line or circle, combined with the markers' sensor noise (camera tracks scatter by centimetres)."""
+    line or circle (at most ``mechanism_rms_m``, and at most ``PIECE_RMS_FACTOR`` times the pieces' own), combined
+    with the markers' sensor noise (camera tracks scatter by centimetres)."""
     by_name = {tr.name: tr for tr in prep.tracks}
     noise = max((by_name[n].sigma_hf_m for n in union.markers if n in by_name), default=0.0)
-    return float(np.hypot(mechanism_rms_m, MERGE_NOISE_SIGMAS * np.sqrt(3.0) * noise))
+    mechanism = min(mechanism_rms_m, PIECE_RMS_FACTOR * max(_fit_rms(f) for f in parts))
+    return float(np.hypot(mechanism, MERGE_NOISE_SIGMAS * np.sqrt(3.0) * noise))
 
 
 def _coordinate(f: SegmentFit, pts: Points) -> FloatArray:
@@ -289,7 +304,7 @@ def merge_adjacent(prep: PreparedRecording, fits: list[SegmentFit], params: Lear
                 best = min(("rotation", "translation"), key=lambda k: union.scores[k])
                 union = fit_span(prep, out[i].t_start, out[j].t_end, params, force=best)  # type: ignore[arg-type]
             if union.kind in ("rotation", "translation") and _union_is_one_motion(
-                prep, union, [out[i], out[j]], merge_tolerance(prep, union, params.merge_rms_m)
+                prep, union, [out[i], out[j]], merge_tolerance(prep, union, [out[i], out[j]], params.merge_rms_m)
             ):
                 out[i : j + 1] = [replace(union, still_markers=out[i].still_markers)]
                 changed = True
@@ -435,8 +450,7 @@ def refine_extents(prep: PreparedRecording, fits: list[SegmentFit]) -> list[Segm
             wts.append(weight * len(seg))
         if nets and sum(wts) > 0:
             net = float(np.average(nets, weights=wts))
-            objects = [(b, a) for b, a, hand in rests if not hand]
-            pairs = objects if len(objects) >= 2 else [(b, a) for b, a, _ in rests]
+            pairs = [(b, a) for b, a, hand in rests if not hand]  # a hand is not on the part at its rests
             if f.kind == "rotation" and f.rotation is not None:
                 oriented = _orientation_angle(prep, fits, i, f.rotation.dir, net)
                 if oriented is not None:

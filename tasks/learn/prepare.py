@@ -98,6 +98,39 @@ def _usable_samples(pts: Points) -> tuple[npt.NDArray[np.bool_], str]:
     return keep, ", ".join(parts)
 
 
+SPIKE_SIGMAS = 5.5
+"""A sample this many noise sigmas (per axis) off the line between its two neighbours, further off than either
+neighbour and with both bent the other way, is a tracking glitch (a marker swapped or mis-triangulated for one
+frame): a real path cannot leave and come back in one sample. A 3-D normal offset is that large (chi-square, 3
+degrees of freedom) less than once in a million samples."""
+
+
+def isolated_jumps(t_s: FloatArray, pts: Points) -> npt.NDArray[np.bool_]:
+    """(n,) True where a sample leaves its path for that sample alone (see ``SPIKE_SIGMAS``): its offset from the
+    line between its neighbours (interpolated in time) exceeds ``SPIKE_SIGMAS`` robust per-axis sigmas of that
+    offset and both neighbours' offsets, which point the other way."""
+    out = np.zeros(len(pts), dtype=bool)
+    if len(pts) < 5:
+        return out
+    dt = np.diff(t_s)
+    if not (dt > 0).all():
+        return out
+    w = dt[:-1] / (dt[:-1] + dt[1:])
+    offset = pts[1:-1] - ((1.0 - w)[:, None] * pts[:-2] + w[:, None] * pts[2:])
+    mad = np.median(np.abs(offset - np.median(offset, axis=0)), axis=0)
+    scale = float(np.sqrt(np.mean((1.4826 * mad) ** 2)))
+    if scale <= 0.0:
+        return out
+    size = np.linalg.norm(offset, axis=1)
+    inner = slice(1, -1)
+    spike = size[inner] > SPIKE_SIGMAS * scale
+    spike &= (size[inner] > size[:-2]) & (size[inner] > size[2:])
+    spike &= np.einsum("ij,ij->i", offset[inner], offset[:-2]) < 0
+    spike &= np.einsum("ij,ij->i", offset[inner], offset[2:]) < 0
+    out[2:-2] = spike
+    return out
+
+
 def prepare(rec: RecordingData, sigma_floor_m: float, hand_pattern: str) -> PreparedRecording:
     """Drop NaN, infinite and absurd samples and order by time (each with a warning), name hand markers; raise
     ``FitError`` when no marker is usable."""
@@ -133,6 +166,10 @@ def prepare(rec: RecordingData, sigma_floor_m: float, hand_pattern: str) -> Prep
             stamps = stamps[~stale]
             pts = pts[~stale]
         t_s: FloatArray = (stamps - rec.start_ns).astype(np.float64) / 1e9
+        jumps = isolated_jumps(t_s, pts)
+        if jumps.any() and (~jumps).sum() >= MIN_SAMPLES:
+            warnings.append(f"marker {name}: {int(jumps.sum())} isolated jumps dropped (one-sample tracking glitches)")
+            stamps, t_s, pts = stamps[~jumps], t_s[~jumps], pts[~jumps]
         if len(pts) < MIN_SAMPLES:
             span = (float(t_s[0]), float(t_s[-1]))
             warnings.append(f"marker {name} t={span[0]:.3f}..{span[1]:.3f} s: only {len(pts)} samples; left out")

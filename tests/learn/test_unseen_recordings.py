@@ -14,6 +14,7 @@ from flows.cli import main as pbd
 from tasks.fit.geometry import angle_between_axes
 from tasks.learn.api import learn_chain
 from tasks.learn.params import LearnParams
+from tasks.learn.prepare import isolated_jumps
 from tasks.recording.load import MarkerTrack, PoseTrack, RecordingData
 from tasks.recording.writer import RecordingWriter
 from tests.conftest import REAL
@@ -175,3 +176,47 @@ def test_orientations_of_a_rigid_body_are_the_evidence_the_fit_names() -> None:
     assert prim.fit["evidence"] == ["positions", "orientations"]
     (plain,) = learn_chain(_recording({"/body": (t, pts)}), LearnParams(), RNG(0)).chain
     assert plain.fit["evidence"] == ["positions"]
+
+
+@pytest.mark.parametrize(("hz", "noise_m"), [(15.0, 0.008), (100.0, 0.0005), (240.0, 0.002)])
+def test_one_sample_tracking_glitches_are_dropped_and_real_motion_kept(hz: float, noise_m: float) -> None:
+    """A slider moved 0.5 m in 1.2 s whose marker jumps 3 to 5 cm (at least 10 noise sigmas) for single frames (a
+    swapped or mis-triangulated marker): the glitches are dropped with a warning, every sample of the motion is kept,
+    and the chain is the one translation."""
+    rng = RNG(12)
+    t = np.arange(0.0, 4.0, 1.0 / hz)
+    travel = 0.5 * _ease((t - 1.0) / 1.2)
+    pts = np.array([0.3, 0.2, 0.8]) + np.outer(travel, [1.0, 0.0, 0.0]) + rng.normal(0.0, noise_m, (len(t), 3))
+    glitches = np.sort(rng.choice(np.arange(3, len(t) - 3), size=3, replace=False))
+    jump = rng.normal(size=(len(glitches), 3))
+    size = np.maximum(10.0 * noise_m, rng.uniform(0.03, 0.05, (len(glitches), 1)))
+    pts[glitches] += jump / np.linalg.norm(jump, axis=1, keepdims=True) * size
+    assert isolated_jumps(t, pts)[glitches].all()
+    assert isolated_jumps(t, pts).sum() == len(glitches)
+    result = learn_chain(_recording({"marker_7": (t, pts)}), LearnParams(), RNG(0))
+    assert [p.kind for p in result.chain] == ["translation"]
+    assert abs(result.chain[0].extent - 0.5) < max(0.01, 4.0 * noise_m)
+    assert any("isolated jumps dropped" in w for w in result.warnings)
+
+
+def test_a_knob_turned_then_its_door_swung_are_two_rotations() -> None:
+    """Two markers on a door's knob (0.5 mm noise, 240 Hz): the knob turns 2 rad about its own axis, rests, and the
+    door swings 0.34 rad about its hinge. Both arcs move the same markers, and one circle fits their union only to
+    centimetres against the sub-millimetre fits of each: two rotations about two axes."""
+    t = np.arange(0.0, 4.0, 1.0 / 240.0)
+    knob_turn = 2.0 * _ease((t - 0.7) / 0.8)
+    door_turn = 0.34 * _ease((t - 2.05) / 0.85)
+    rng = RNG(13)
+    markers = {}
+    for name, (r, h) in {"marker_11": (0.035, 0.01), "marker_37": (0.05, 0.03)}.items():
+        # knob frame: axis along door normal x, marker at radius r in the door plane (y, z), h out of the door
+        local = np.column_stack([np.full_like(t, h), r * np.cos(knob_turn), r * np.sin(knob_turn)])
+        on_door = local + np.array([0.0, 0.3, 0.0])  # knob 0.3 m from the hinge along the leaf (y)
+        rot = Rotation.from_rotvec(np.outer(door_turn, [0.0, 0.0, 1.0]))
+        markers[name] = (t, HINGE + rot.apply(on_door) + rng.normal(0.0, 0.0005, (len(t), 3)))
+    chain = learn_chain(_recording(markers), LearnParams(), RNG(0)).chain
+    assert [p.kind for p in chain] == ["rotation", "rotation"]
+    knob, door = chain
+    assert angle_between_axes(np.array(knob.dir), np.array([1.0, 0.0, 0.0]), signed=False) < np.radians(3.0)
+    assert angle_between_axes(np.array(door.dir), np.array([0.0, 0.0, 1.0]), signed=False) < np.radians(3.0)
+    assert abs(knob.extent - 2.0) < 0.1 and abs(door.extent - 0.34) < 0.03
