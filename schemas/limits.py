@@ -15,8 +15,9 @@ from schemas.errors import DescriptorError
 
 MAX_DESCRIPTOR_BYTES = 1 << 20
 """Largest descriptor file read: a chain of ``MAX_PRIMITIVES`` primitives with their fit summaries is tens of KB."""
-MAX_PRIMITIVES = 64
-"""Primitives in a chain: one demonstration of one object shows a handful of motions, never dozens."""
+MAX_PRIMITIVES = 256
+"""Primitives in a chain: a door swung open and shut every two seconds for ten minutes of recording (the longest
+demonstration archives hold) gives about 260 at most; a descriptor of that many is a few hundred KB."""
 MAX_ARRAY_ITEMS = 256
 """Items in any JSON array: the longest of the layout is a primitive's marker names, and a motion-capture rig on
 one object tracks at most a few hundred markers."""

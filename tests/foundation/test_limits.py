@@ -35,7 +35,7 @@ def test_the_contract_error_is_the_one_the_cli_catches() -> None:
     ("changes", "message"),
     [
         ({"name": "n" * 201}, r"name of 201 characters \(limit 200\)"),
-        ({"chain": [_doc()["chain"][1]] * 65}, r"chain of 65 primitives \(limit 64\)"),
+        ({"chain": [_doc()["chain"][1]] * 257}, r"chain of 257 primitives \(limit 256\)"),
         ({"chain__0__markers": ["/m"] * 300}, r"chain/0/markers: array of 300 items \(limit 256\)"),
         ({"chain__0__fit": {"a": json.loads("[" * 40 + "]" * 40)}}, r"JSON nested deeper than 32 levels \(at chain/0/"),
         ({"chain__1__dir": [0.0, 0.0, 0.0]}, r"chain/1/dir: must be a unit vector, norm is 0 \(tolerance 0.001\)"),

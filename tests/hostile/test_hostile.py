@@ -66,8 +66,8 @@ def test_descriptors_that_broke_diff_and_simulate(inputs: Inputs) -> None:
     _one_line(inputs, ("simulate", far), "chain/1/extent: 1e+06 m beyond 5 m")
     many = _descriptor(inputs, "many", ("chain",), lambda chain: chain * 20000)
     _one_line(inputs, ("diff", many, good), "larger than a descriptor can be (1048576 bytes)")
-    chain = _descriptor(inputs, "chain", ("chain",), lambda chain: chain * 40)
-    _one_line(inputs, ("simulate", chain), "chain of 80 primitives (limit 64)")
+    chain = _descriptor(inputs, "chain", ("chain",), lambda chain: chain * 150)
+    _one_line(inputs, ("simulate", chain), "chain of 300 primitives (limit 256)")
     amplitudes = _descriptor(inputs, "amplitudes", ("grasp", "eigengrasps"), lambda _: [0.1] * 100000)
     _one_line(inputs, ("diff", amplitudes, good), "grasp/eigengrasps: array of 100000 items (limit 256)")
     nan = inputs.folder / "nan.json"
