@@ -105,6 +105,10 @@ class ShakeResult:
     max_shift_m: float
     max_turn_rad: float
     survived_s: float = 0.0
+    squeezed_positions: Points | None = None
+    squeezed_normals: Points | None = None
+    """The contacts (m, 3) once the fingers have squeezed the part for 0.3 s without gravity, and their normals into
+    the part, expressed where the model has the part (world, m): what the squeezing hand holds."""
 
 
 def _relative(client_id: int, hand: int, obj: int) -> tuple[FloatArray, Rotation]:
@@ -206,8 +210,10 @@ def shake_test(model: ObjectModel, grasp: Grasp, params: ShakeParams | None = No
         pos = np.array(grasp.wrist_position)
         quat = np.array(grasp.wrist_orientation)
         hand, obj, anchor = grip(client, model, pos, quat, barrett.dofs_from_eigengrasps(*grasp.eigengrasps), prm)
+        start = pb.getBasePositionAndOrientation(obj, physicsClientId=client)
         for _ in range(int(0.3 / TIME_STEP_S)):
             pb.stepSimulation(physicsClientId=client)
+        squeezed = _squeezed_contacts(client, hand, obj, start)
         ref_pos, ref_rot = _relative(client, hand, obj)
         shift = 0.0
         turn = 0.0
@@ -257,7 +263,19 @@ def shake_test(model: ObjectModel, grasp: Grasp, params: ShakeParams | None = No
     finally:
         pb.disconnect(client)
     holds = shift <= prm.max_shift_m and turn <= prm.max_turn_rad
-    return ShakeResult(holds, shift, turn, steps * TIME_STEP_S)
+    return ShakeResult(holds, shift, turn, steps * TIME_STEP_S, *squeezed)
+
+
+def _squeezed_contacts(client: int, hand: int, obj: int, start: tuple[object, object]) -> tuple[Points, Points]:
+    """The hand's contacts on the part and their normals into it, the part's motion since ``start`` (its base
+    position and orientation then) undone."""
+    end_pos, end_quat = pb.getBasePositionAndOrientation(obj, physicsClientId=client)
+    back = Rotation.from_quat(start[1]) * Rotation.from_quat(end_quat).inv()  # type: ignore[arg-type]
+    contacts = closing.contacts_of(client, hand, obj)
+    if not len(contacts.positions):
+        return np.zeros((0, 3)), np.zeros((0, 3))
+    positions = back.apply(contacts.positions - np.asarray(end_pos)) + np.asarray(start[0])
+    return np.asarray(positions, dtype=np.float64).reshape(-1, 3), back.apply(contacts.normals_in).reshape(-1, 3)
 
 
 QUICK_SHAKE = ShakeParams()
