@@ -113,6 +113,7 @@ class Row:
     plan_cpu_s: float
     base_fc: bool
     base_hold: bool
+    source: str
 
 
 def run_case(case: Case, kind: str, seed: int, index: int) -> Row:
@@ -125,11 +126,11 @@ def run_case(case: Case, kind: str, seed: int, index: int) -> Row:
     program = hold_program(np.random.default_rng([seed, 2, index]))
     t0, c0 = time.perf_counter(), time.process_time()
     try:
-        grasp: Grasp | None = grasp_from_candidate(
-            plan_on_model(model, case.seed_pos, case.seed_quat, np.random.default_rng(seed))
-        )
+        planned = plan_on_model(model, case.seed_pos, case.seed_quat, np.random.default_rng(seed))
+        grasp: Grasp | None = grasp_from_candidate(planned)
+        source = planned.source
     except GraspError:
-        grasp = None
+        grasp, source = None, "none"
     plan_s, plan_cpu_s = time.perf_counter() - t0, time.process_time() - c0
     base = baseline(model, case.seed_pos, case.seed_quat)
     dist, angle = offset_from(grasp, case.seed_pos, case.seed_quat) if grasp is not None else (math.nan, math.nan)
@@ -145,6 +146,7 @@ def run_case(case: Case, kind: str, seed: int, index: int) -> Row:
         plan_cpu_s,
         bool(base is not None and base.quality["force_closure"]),
         bool(base is not None and shake_test(truth, base, program).holds),
+        source,
     )
 
 
@@ -169,7 +171,7 @@ def run_seed(seed: int, args: argparse.Namespace) -> list[Row]:
         print(
             f"{seed} {index:2d} {r.name:40s} ours fc={r.fc!s:5s} hold={r.hold!s:5s} eps={r.eps:.3f}"
             f" off {r.dist_mm:5.1f} mm {r.angle_deg:5.1f} deg {r.plan_s:4.1f} s ({r.plan_cpu_s:4.1f} cpu)"
-            f" | baseline fc={r.base_fc!s:5s} hold={r.base_hold!s:5s}",
+            f" {r.source:13s} | baseline fc={r.base_fc!s:5s} hold={r.base_hold!s:5s}",
             flush=True,
         )
     return rows
@@ -200,6 +202,8 @@ def print_table(rows: list[Row], title: str) -> None:
     ):
         figure = f"{np.median(times):.2f} / {np.percentile(times, 95):.2f} / {times.max():.2f}"
         print(f"{name + ' s, median / p95 / max':46s} {figure:>16s} {'0 (no search)':>24s}")
+    sources = {name: sum(r.source == name for r in rows) for name in dict.fromkeys(r.source for r in rows)}
+    print(f"{'plans by generator':46s} " + ", ".join(f"{k} {v}" for k, v in sources.items()))
     print(f"targets: 95% hold, force closure on all, median {MEDIAN_TARGET_S:.0f} s, p95 {P95_TARGET_S:.0f} s")
 
 

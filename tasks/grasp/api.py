@@ -106,8 +106,6 @@ def choose(model: ObjectModel, ranked: list[GraspCandidate], params: PlannerPara
             break
         result = shake_test(model, grasp_from_candidate(cand), hold_check(cand.quat_xyzw))
         left -= result.survived_s
-        if __import__("os").environ.get("GDEBUG"):
-            print("  chk", cand.source, cand.quality.force_closure, round(cand.closeness, 2), result.holds, round(result.max_shift_m * 1000, 1), round(math.degrees(result.max_turn_rad), 1), round(result.survived_s, 2), _squeezed(result, model, params.mu).force_closure)
         quality = cand.quality if cand.quality.force_closure else _squeezed(result, model, params.mu)
         if result.holds and quality.force_closure:
             chosen = dataclasses.replace(cand, quality=quality)

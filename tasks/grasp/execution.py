@@ -90,7 +90,8 @@ def execute_pose(  # noqa: PLR0917 -- pybullet ids, model, pose, spread, params
     mu: float,
 ) -> tuple[Vector3, FloatArray, GraspQuality] | None:
     """Execute one grasp in a pybullet client holding the hand and the (static) object: the palm position after the
-    approach, the closed joints (7,) and the quality; None when the open hand is in collision even backed off."""
+    approach, the closed joints (7,) and the quality of the contacts on the part (not its mount); None when the open
+    hand is in collision even backed off."""
     quat = Rotation.from_matrix(rot).as_quat()
     for back in np.arange(0.0, BACK_OFF_M + 1e-9, BACK_OFF_STEP_M):
         start = pos - back * rot[:, 2]
@@ -103,7 +104,9 @@ def execute_pose(  # noqa: PLR0917 -- pybullet ids, model, pose, spread, params
     final = closing.approach_to_contact(client, hand, obj, start, quat, approach_max_m)
     closed = closing.close_fingers(client, hand, obj, dofs)
     contacts = closing.contacts_of(client, hand, obj)
-    return final, closed, grasp_quality(contacts.positions, contacts.normals_in, model.center, model.radius, mu)
+    on_part = ~model.is_mount_piece(contacts.pieces)  # a finger pressing the mount holds nothing of the part
+    quality = grasp_quality(contacts.positions[on_part], contacts.normals_in[on_part], model.center, model.radius, mu)
+    return final, closed, quality
 
 
 def execute_states(

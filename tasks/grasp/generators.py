@@ -52,7 +52,8 @@ CHAIN_SPREADS = (-1.13, 0.0, 0.44, 2.0)
 Generator = Callable[[ObjectModel, SearchSpace, PlannerParams, np.random.Generator], list[Proposal]]
 
 
-def _at(space: SearchSpace, spread: float, d: float, roll: float = 0.0, u: float = 0.0, v: float = 0.0) -> np.ndarray:
+def _at(spread: float, d: float, roll: float = 0.0, u: float = 0.0, v: float = 0.0) -> np.ndarray:
+    """The state of the open hand at ``spread`` (rad), ``d`` before the pivot, rolled, moved (u, v) across."""
     return np.array([barrett.spread_amplitude(spread), 0.0, d, roll, 0.0, 0.0, u, v])
 
 
@@ -72,7 +73,7 @@ def demonstrated(
     """The demonstrated palm, held back ``HOLD_BACK_M`` and rolled ``ROLLS_RAD``, at ``SPREADS_RAD``."""
     del model, rng
     return [
-        Proposal("demonstrated", _at(space, spread, space.pivot_m + back, roll), params.approach_max_m)
+        Proposal("demonstrated", _at(spread, space.pivot_m + back, roll), params.approach_max_m)
         for back in (0.0, HOLD_BACK_M)
         for roll in ROLLS_RAD
         for spread in SPREADS_RAD
@@ -98,7 +99,7 @@ def along_the_bar(
         return []
     u, v = u / math.hypot(u, v), v / math.hypot(u, v)
     return [
-        Proposal("along the bar", _at(space, spread, space.pivot_m + back, 0.0, s * u, s * v), 0.0)
+        Proposal("along the bar", _at(spread, space.pivot_m + back, 0.0, s * u, s * v), 0.0)
         for slide in SLIDES_M
         for s in (slide, -slide)
         for back in (0.0, HOLD_BACK_M)
@@ -109,11 +110,11 @@ def along_the_bar(
 def pinch(model: ObjectModel, space: SearchSpace, params: PlannerParams, rng: np.random.Generator) -> list[Proposal]:
     """On a mounted part: the demonstrated palm held back ``TIP_DISTANCES_M`` from the pivot, rolled ``ROLLS_RAD``,
     at ``TIP_SPREADS_RAD``, closed where it is."""
-    del rng, params
+    del rng, params, space
     if model.mount is None:
         return []
     return [
-        Proposal("pinch", _at(space, spread, d, roll), 0.0)
+        Proposal("pinch", _at(spread, d, roll), 0.0)
         for roll in ROLLS_RAD
         for d in TIP_DISTANCES_M
         for spread in TIP_SPREADS_RAD

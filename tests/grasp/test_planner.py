@@ -67,7 +67,8 @@ def test_a_state_and_its_palm_pose_map_onto_each_other(handle_points: tuple[Poin
 
 def test_annealing_keeps_the_best_unique_states(handle_points: tuple[Points, Points]) -> None:
     model = build_object_model(handle_points[0], np.random.default_rng(0))
-    space = search_space(model, Rotation.from_quat(PALM_DOWN).as_matrix(), HANDLE_CENTER + [0, 0, 0.06], PlannerParams())
+    seed_rot = Rotation.from_quat(PALM_DOWN).as_matrix()
+    space = search_space(model, seed_rot, HANDLE_CENTER + np.array([0, 0, 0.06]), PlannerParams())
     best = BestList(6, space.upper - space.lower)
     start = np.array([0.0, -1.0, space.pivot_m, 0.0, 0.0, 0.0, 0.0, 0.0])
     anneal(lambda x: state_energy(model, space, x), start, space, np.random.default_rng(0), 200, best)

@@ -21,11 +21,17 @@ from tests.grasp.cases.grasp import Case, palm_seed
 
 CENTRE = np.array([0.5, 0.0, 0.5])
 """Where every family object stands (world, m)."""
-SCAN_POINTS = 4000
-"""Surface points drawn for an object's scan (before the ones inside another of its shapes are dropped)."""
+SCAN_POINTS = 8192
+DETAIL_RADIUS_M = 0.15
+"""A scan as ``pbd synth`` records one (``tasks.synth.scan``): 8192 points, half of them on the surfaces within
+15 cm of the demonstrated palm, the rest even over the object."""
 FAMILIES = ("round pull", "square pull", "D pull", "knob", "lever", "bottle cap", "small box", "large box",
             "thin cylinder", "wide cylinder")  # fmt: skip
 """The families, drawn in turn."""
+
+
+def _v(x: float, y: float, z: float) -> np.ndarray:
+    return np.array([x, y, z])
 
 
 def _inside(shape: WorldShape, points: Points, margin_m: float = 3e-4) -> np.ndarray:
@@ -38,13 +44,18 @@ def _inside(shape: WorldShape, points: Points, margin_m: float = 3e-4) -> np.nda
     return (np.hypot(local[:, 0], local[:, 1]) < radius - margin_m) & (np.abs(local[:, 2]) < length / 2.0 - margin_m)
 
 
-def _scan(shapes: list[WorldShape], rng: np.random.Generator) -> Points:
-    """Surface points of the union of ``shapes`` (those inside another shape dropped)."""
-    pts = sample_shapes(shapes, SCAN_POINTS, rng)
-    hidden = np.zeros(len(pts), dtype=bool)
+def _scan(shapes: list[WorldShape], palm: np.ndarray, rng: np.random.Generator) -> Points:
+    """Surface points of the union of ``shapes`` (those inside another shape dropped), scanned as ``pbd synth``
+    scans (``SCAN_POINTS``, ``DETAIL_RADIUS_M`` around the ``palm``)."""
+    dense = sample_shapes(shapes, 16 * SCAN_POINTS, rng)
+    hidden = np.zeros(len(dense), dtype=bool)
     for s in shapes:
-        hidden |= _inside(s, pts)
-    return pts[~hidden]
+        hidden |= _inside(s, dense)
+    dense = dense[~hidden]
+    near = np.flatnonzero(np.linalg.norm(dense - palm, axis=1) < DETAIL_RADIUS_M)
+    detail = dense[rng.choice(near, size=min(SCAN_POINTS // 2, len(near)), replace=False)]
+    even = dense[rng.choice(len(dense), size=SCAN_POINTS - len(detail), replace=False)]
+    return np.concatenate([even, detail])
 
 
 def _cylinder(name: str, radius: float, length: float, axis: str, at: np.ndarray) -> WorldShape:
@@ -71,57 +82,57 @@ def _pull(profile: str, rng: np.random.Generator) -> tuple[str, list[WorldShape]
         bar = [_box("bar", size, CENTRE)]  # type: ignore[arg-type]
     else:  # D: round towards the hand, flat towards the plate
         back = (size[0], width, size[2])
-        bar = [_cylinder("bar", width, length, axis, CENTRE), _box("bar", back, CENTRE + [0.0, width / 2, 0.0])]
+        bar = [_cylinder("bar", width, length, axis, CENTRE), _box("bar", back, CENTRE + _v(0.0, width / 2, 0.0))]
     posts = [
-        _cylinder("post", 0.006, standoff, "y", CENTRE + s * (length / 2 - 0.012) * along + [0.0, standoff / 2, 0.0])
+        _cylinder("post", 0.006, standoff, "y", CENTRE + s * (length / 2 - 0.012) * along + _v(0.0, standoff / 2, 0.0))
         for s in (-1.0, 1.0)
     ]
     plate = (0.06, 0.01, length + 0.06) if axis == "z" else (length + 0.06, 0.01, 0.06)
-    mount = [_box("plate", plate, CENTRE + [0.0, standoff + 0.005, 0.0])]  # type: ignore[arg-type]
+    mount = [_box("plate", plate, CENTRE + _v(0.0, standoff + 0.005, 0.0))]  # type: ignore[arg-type]
     name = f"{profile} pull w{2000 * width:.0f} l{1000 * length:.0f}mm {'vertical' if axis == 'z' else 'horizontal'}"
     return name, bar + posts, mount, width, axis
 
 
-def family_case(family: str, rng: np.random.Generator) -> Case:  # noqa: PLR0914 -- one branch per family
+def family_case(family: str, rng: np.random.Generator) -> Case:
     """One object of ``family`` (``FAMILIES``) with its demonstrated palm seed."""
     down, towards_plate = np.array([0.0, 0.0, -1.0]), np.array([0.0, 1.0, 0.0])
     gap = float(rng.uniform(0.02, 0.06))
     if family.endswith("pull"):
-        name, part, mount, depth, axis = _pull(family.split()[0], rng)
+        name, part, mount, depth, axis = _pull(family.split(maxsplit=1)[0], rng)
         along = np.array([0.0, 0.0, 1.0]) if axis == "z" else np.array([1.0, 0.0, 0.0])
-        pos, quat = palm_seed(CENTRE - [0.0, depth, 0.0], towards_plate, gap, rng, along)
+        pos, quat = palm_seed(CENTRE - _v(0.0, depth, 0.0), towards_plate, gap, rng, along)
     elif family == "knob":
         radius, height = float(rng.uniform(0.015, 0.03)), float(rng.uniform(0.015, 0.03))
         stem = float(rng.uniform(0.015, 0.03))
         part = [_cylinder("knob", radius, height, "y", CENTRE),
-                _cylinder("stem", 0.006, stem, "y", CENTRE + [0.0, (height + stem) / 2, 0.0])]  # fmt: skip
-        mount = [_box("plate", (0.12, 0.01, 0.12), CENTRE + [0.0, height / 2 + stem + 0.005, 0.0])]
+                _cylinder("stem", 0.006, stem, "y", CENTRE + _v(0.0, (height + stem) / 2, 0.0))]  # fmt: skip
+        mount = [_box("plate", (0.12, 0.01, 0.12), CENTRE + _v(0.0, height / 2 + stem + 0.005, 0.0))]
         name = f"knob r{1000 * radius:.0f} h{1000 * height:.0f}mm"
-        pos, quat = palm_seed(CENTRE - [0.0, height / 2, 0.0], towards_plate, gap, rng)
+        pos, quat = palm_seed(CENTRE - _v(0.0, height / 2, 0.0), towards_plate, gap, rng)
     elif family == "lever":
         length, radius = float(rng.uniform(0.07, 0.16)), float(rng.uniform(0.007, 0.011))
         standoff = float(rng.uniform(0.04, 0.06))
-        rose = CENTRE + [-length / 2 + 0.01, 0.0, 0.0]
+        rose = CENTRE + _v(-length / 2 + 0.01, 0.0, 0.0)
         part = [_cylinder("lever", radius, length, "x", CENTRE),
-                _cylinder("rose", 0.01, standoff, "y", rose + [0.0, standoff / 2, 0.0])]  # fmt: skip
-        mount = [_box("leaf", (length + 0.15, 0.01, 0.2), rose + [0.05, standoff + 0.005, 0.0])]
+                _cylinder("rose", 0.01, standoff, "y", rose + _v(0.0, standoff / 2, 0.0))]  # fmt: skip
+        mount = [_box("leaf", (length + 0.15, 0.01, 0.2), rose + _v(0.05, standoff + 0.005, 0.0))]
         name = f"lever r{1000 * radius:.0f} l{1000 * length:.0f}mm"
-        grip_at = CENTRE + [length / 4, -radius, 0.0]
+        grip_at = CENTRE + _v(length / 4, -radius, 0.0)
         pos, quat = palm_seed(grip_at, towards_plate, gap, rng, np.array([1.0, 0.0, 0.0]))
     elif family == "bottle cap":
         body_r, body_h = float(rng.uniform(0.03, 0.045)), float(rng.uniform(0.12, 0.22))
         neck_r, neck_h = float(rng.uniform(0.011, 0.016)), float(rng.uniform(0.015, 0.04))
         cap_r, cap_h = neck_r + float(rng.uniform(0.001, 0.006)), float(rng.uniform(0.012, 0.03))
-        base = CENTRE - [0.0, 0.0, body_h]
-        mount = [_cylinder("body", body_r, body_h, "z", base + [0.0, 0.0, body_h / 2]),
-                 _cylinder("neck", neck_r, neck_h, "z", base + [0.0, 0.0, body_h + neck_h / 2])]  # fmt: skip
+        base = CENTRE - _v(0.0, 0.0, body_h)
+        mount = [_cylinder("body", body_r, body_h, "z", base + _v(0.0, 0.0, body_h / 2)),
+                 _cylinder("neck", neck_r, neck_h, "z", base + _v(0.0, 0.0, body_h + neck_h / 2))]  # fmt: skip
         top = base[2] + body_h + neck_h + cap_h
         part = [_cylinder("cap", cap_r, cap_h, "z", [CENTRE[0], CENTRE[1], top - cap_h / 2])]
         name = f"bottle cap r{1000 * cap_r:.0f} h{1000 * cap_h:.0f}mm body r{1000 * body_r:.0f}"
         pos, quat = palm_seed(np.array([CENTRE[0], CENTRE[1], top]), down, gap, rng)
     else:
         return _primitive_case(family, rng, gap)
-    points = _scan(part + mount, rng)
+    points = _scan(part + mount, pos, rng)
     return Case(name, points, pos, quat, functools.partial(exact_model, part, mount))
 
 
@@ -134,18 +145,18 @@ def _primitive_case(family: str, rng: np.random.Generator, gap: float) -> Case:
         other, height = float(rng.uniform(0.03, 0.08)), float(rng.uniform(0.04, 0.12))
         half = (width / 2, other / 2, height / 2)
         shape = PrimitiveShape("box", half, tuple(CENTRE))  # type: ignore[arg-type]
-        pts = sample_shapes([_box("box", (width, other, height), CENTRE)], SCAN_POINTS, rng)
-        pos, quat = palm_seed(CENTRE + [0.0, 0.0, height / 2], np.array([0.0, 0.0, -1.0]), gap, rng,
+        pos, quat = palm_seed(CENTRE + np.array([0.0, 0.0, height / 2]), np.array([0.0, 0.0, -1.0]), gap, rng,
                               np.array([0.0, 1.0, 0.0]))  # fmt: skip
+        pts = _scan([_box("box", (width, other, height), CENTRE)], pos, rng)
         name = f"{family} {1000 * width:.0f}x{1000 * other:.0f}x{1000 * height:.0f}mm"
     else:
         thin = family.startswith("thin")
         radius = float(rng.uniform(0.006, 0.012) if thin else rng.uniform(0.04, 0.055))
         half_h = float(rng.uniform(0.04, 0.09))
         shape = PrimitiveShape("cylinder", (radius, half_h, 0.0), tuple(CENTRE))  # type: ignore[arg-type]
-        pts = sample_shapes([_cylinder("can", radius, 2 * half_h, "z", CENTRE)], SCAN_POINTS, rng)
-        pos, quat = palm_seed(CENTRE - [0.0, radius, 0.0], np.array([0.0, 1.0, 0.0]), gap, rng,
+        pos, quat = palm_seed(CENTRE - np.array([0.0, radius, 0.0]), np.array([0.0, 1.0, 0.0]), gap, rng,
                               np.array([0.0, 0.0, 1.0]))  # fmt: skip
+        pts = _scan([_cylinder("can", radius, 2 * half_h, "z", CENTRE)], pos, rng)
         name = f"{family} r{1000 * radius:.0f} h{2000 * half_h:.0f}mm"
 
     def truth(rng: np.random.Generator) -> ObjectModel:
