@@ -254,9 +254,3 @@ def _squeezed_contacts(client: int, hand: int, obj: int, start: tuple[object, ob
         return np.zeros((0, 3)), np.zeros((0, 3))
     positions = back.apply(contacts.positions - np.asarray(end_pos)) + np.asarray(start[0])
     return np.asarray(positions, dtype=np.float64).reshape(-1, 3), back.apply(contacts.normals_in).reshape(-1, 3)
-
-
-QUICK_SHAKE = ShakeParams()
-"""A quick check: world gravity, x, y, z and two diagonals (it stops as soon as a grasp fails it, so a failing grasp
-costs little). The planner's check when it found no force closure (``tasks.grasp.hold_check.hold_check``
-otherwise)."""
