@@ -96,7 +96,8 @@ def choose(model: ObjectModel, ranked: list[GraspCandidate], params: PlannerPara
     """The first of ``ranked`` that holds firmly (``FIRM``) under ``hold_check`` with a force closure at
     ``params.mu``, static or squeezed (then with the squeezed quality), while the budget lasts (a check starts
     only while a whole one fits in the simulated time left); else the first that held loosely; else the first that
-    held with a squeezed force closure at ``HELD_MU``; else the force closure that lasted longest; else the first."""
+    held with a squeezed force closure at ``HELD_MU``; else the checked force closure that lasted longest; else the
+    first force closure; else the first."""
     left = params.hold_checks * CHECK_LENGTH_S
     loose: list[GraspCandidate] = []
     held: list[GraspCandidate] = []
@@ -120,7 +121,9 @@ def choose(model: ObjectModel, ranked: list[GraspCandidate], params: PlannerPara
             longest = (result.survived_s, cand)
     if loose or held:
         return (loose + held)[0]
-    return longest[1] if longest is not None else ranked[0]
+    if longest is not None:
+        return longest[1]
+    return next((c for c in ranked if c.quality.force_closure), ranked[0])
 
 
 def plan_grasp(
