@@ -106,7 +106,7 @@ def smoothed_normals(points: Points, normals: Points) -> Points:
     _, nbr = cKDTree(points).query(points, k=k)
     near = np.asarray(normals, dtype=np.float64)[nbr]  # (n, k, 3)
     agree = np.abs(np.einsum("nij,nkj->nik", near, near)) >= FACE_COS  # (n, k, k)
-    out = near[np.arange(len(points)), agree.sum(axis=2).argmax(axis=1)]
+    out: Points = near[np.arange(len(points)), agree.sum(axis=2).argmax(axis=1)]
     for _ in range(SMOOTH_ROUNDS):
         near = out[nbr]
         cos = np.einsum("nkj,nj->nk", near, out)
