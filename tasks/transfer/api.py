@@ -207,6 +207,8 @@ def transfer_descriptor(
             {
                 "placed_by": "symmetry" if snapped > 0.0 else ("neighbourhood" if fit.local else "whole model"),
                 "residual_rms_m": _finite(fit.spread.rms_m),
+                "neighbourhood_shift_mm": fit.whole_shift_m * 1e3,
+                "neighbourhood_turn_deg": math.degrees(fit.whole_turn_rad),
                 "registration_pos_std_m": _finite(unc.registration_pos_std_m),
                 "registration_dir_std_rad": _finite(unc.registration_dir_std_rad),
                 "snapped_mm": snapped * 1e3,

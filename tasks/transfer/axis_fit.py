@@ -5,12 +5,14 @@ hinge edge, the lever and rose) pin the axis itself, once the model's faces that
 rigid point-to-plane fit of that neighbourhood alone, started from the stretched fit. The neighbourhood is used
 only when its normals pin the axis across itself (their scatter across the axis has both eigenvalues at least
 ``MIN_LATERAL``: two faces meeting at a hinge, a lever's sides), and when its fit pairs enough points; else the
-whole model's fit places the axis. Each placement comes with its spread (``stretch.line_spread``). Lengths in
+whole model's fit places the axis. Each placement comes with its spread (``stretch.line_spread``), widened to
+cover how far the neighbourhood moved the axis from the whole model's placement (``AGREEMENT_SIGMAS``). Lengths in
 metres.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -20,7 +22,7 @@ from tasks.arrays import Points, Vector3
 from tasks.transfer.clouds import median_spacing
 from tasks.transfer.local_refine import LocalParams, axis_region, region_size
 from tasks.transfer.registration import surface_normals
-from tasks.transfer.similarity import Similarity, point_line_distance
+from tasks.transfer.similarity import Similarity, angle_between_deg, point_line_distance
 from tasks.transfer.stretch import (
     STRETCH_POINTS,
     FitSpread,
@@ -29,12 +31,17 @@ from tasks.transfer.stretch import (
     fit_stretch,
     line_spread,
     local_similarity,
+    smoothed_normals,
     stretch_icp,
 )
 
 MIN_LATERAL = 0.05
 """The neighbourhood pins the axis when its normals' scatter across the axis has both eigenvalues at least this
 (one flat face: 0, free to slide; two perpendicular faces in equal parts: 0.5)."""
+AGREEMENT_SIGMAS = 3.0
+"""The neighbourhood's and the whole model's placements of an axis come from the same scan; three of the kept
+one's sigmas must cover how far apart they are. Sigmas from the residuals alone miss what the model of the fit
+leaves out (a face the scan lacks, a wrong pairing), and the disagreement shows it."""
 MIN_REGION_PAIRS = 60
 """Fewer matched neighbourhood points than this: the neighbourhood does not place the axis."""
 
@@ -49,6 +56,10 @@ class AxisFit:
     """True when the axis's neighbourhood placed it (else the whole model's stretched fit)."""
     direction_from: Stretched | None = None
     """The fit that turns the axis when it is not ``fit`` (the whole model's, when it pins the direction better)."""
+    whole_shift_m: float = 0.0
+    """How far the neighbourhood's fit moved the axis point from the whole model's placement, metres (target)."""
+    whole_turn_rad: float = 0.0
+    """How far it turned the axis from the whole model's placement, radians."""
 
     def start(self, pos: Vector3, direction: Vector3) -> Similarity:
         """The similarity carrying the line through ``pos`` along unit ``direction`` (source frame) as this fit
@@ -113,9 +124,16 @@ def fit_axis(
     )
     if spread.pairs < MIN_REGION_PAIRS:
         return AxisFit(whole, global_spread, local=False)
+    whole_pos, whole_dir = whole.carry_line(pos, direction)
+    local_pos, local_dir = fitted.carry_line(pos, direction)
+    shift = point_line_distance(local_pos, whole_pos, whole_dir)
+    turn = math.radians(angle_between_deg(local_dir, whole_dir))
+    spread = replace(spread, pos_std_m=max(spread.pos_std_m, shift / AGREEMENT_SIGMAS))
     if global_spread.dir_std_rad < spread.dir_std_rad:  # the whole model turns the axis more surely (a door's leaf)
-        return AxisFit(fitted, replace(spread, dir_std_rad=global_spread.dir_std_rad), local=True, direction_from=whole)
-    return AxisFit(fitted, spread, local=True)
+        spread = replace(spread, dir_std_rad=global_spread.dir_std_rad)
+        return AxisFit(fitted, spread, local=True, direction_from=whole, whole_shift_m=shift, whole_turn_rad=turn)
+    spread = replace(spread, dir_std_rad=max(spread.dir_std_rad, turn / AGREEMENT_SIGMAS))
+    return AxisFit(fitted, spread, local=True, whole_shift_m=shift, whole_turn_rad=turn)
 
 
 @dataclass(frozen=True)
@@ -142,12 +160,18 @@ def fit_axes(
     """The stretched fit of ``source`` onto ``target`` from the registration's ``best``, then every primitive's
     own fit (``fit_axis``); ``threshold_m`` and ``spacing_m``: the registration's final correspondence threshold
     and the target's median point spacing."""
-    source_normals = surface_normals(source, median_spacing(source))
+    source_normals = smoothed_normals(source, surface_normals(source, median_spacing(source)))
     target_normals = surface_normals(target, spacing_m)
     pick = rng.permutation(source.shape[0])[:STRETCH_POINTS]
     sample = (source[pick], source_normals[pick])
     whole = fit_stretch(
-        sample, target, target_normals, best, threshold_m, axes=box_axes(source), centre=source.mean(axis=0)
+        sample,
+        target,
+        target_normals,
+        best,
+        threshold_m,
+        axes=box_axes(source, source_normals),
+        centre=source.mean(axis=0),
     )
     _, radius = region_size(source, LocalParams())
     fits = tuple(

@@ -9,9 +9,12 @@ map is
 with ``S`` the registration's similarity, ``V`` (3, 3) the source's box axes (columns: its minimal oriented
 bounding box, open3d), ``c`` the source's centroid and ``f`` (3,) stretch factors. ``stretch_icp`` refines the
 rotation, translation and factors by point-to-plane ICP (the similarity's own scale stays, so the factors carry
-the proportions); factors the target's scan does not constrain stay at 1 by a small ridge. Each primitive is
-then carried by the similarity that agrees with the stretched map at its axis (``local_similarity``). Lengths
-in metres.
+the proportions); factors the target's scan does not constrain stay at 1 by a small ridge. The planes are the
+source model's (its normals carried by the map), not the scan's: normals estimated on a scan with 1-2 mm noise
+tilt by several degrees at random, and on a flat face those tilts read as information along the face, which the
+face does not give (a door front seen without its hinge side would pin the hinge across the door). The scan's
+normals only decide which pairs face the same way. Each primitive is then carried by the similarity that agrees
+with the stretched map at its axis (``local_similarity``). Lengths in metres.
 """
 
 from __future__ import annotations
@@ -36,6 +39,12 @@ NORMAL_COS = math.cos(math.radians(30.0))
 CORRELATED_POINTS = 4.0
 """Neighbouring pairs share their error (a depth scanner's noise is smooth over a pixel or two, so a point and
 its nearest neighbours err together): the residuals count as one independent observation per 2 x 2 pairs."""
+NEAREST_SLACK = 0.25
+NEAREST_K = 8
+"""A pair counts only when its source point's plane is, within this fraction of the correspondence distance, the
+nearest of the planes of the ``NEAREST_K`` source points nearest its target point: the back face of a thin part
+(a door leaf, a drawer front) faces the same way, unsigned, as the front one the scan shows, and would pull it
+in."""
 POINT_WEIGHT = 0.3
 """Weight of the point-to-point components beside the point-to-plane residual."""
 RIDGE = 1e-2
@@ -70,14 +79,71 @@ class Stretched:
         return moved, self.similarity.apply_direction(self.linear() @ direction)
 
 
-def box_axes(points: Points) -> FloatArray:
-    """(3, 3) unit columns: the axes of the minimal oriented bounding box of ``points`` (open3d)."""
+def box_axes(points: Points, normals: Points | None = None) -> FloatArray:
+    """(3, 3) unit columns: the axes of the minimal oriented bounding box of ``points`` (open3d), turned onto the
+    directions the model's faces face when ``normals`` ((n, 3) unit, unsigned) are given (``face_frame``)."""
     cloud = o3d.geometry.PointCloud()
     cloud.points = o3d.utility.Vector3dVector(np.ascontiguousarray(points, dtype=np.float64))
     rot = np.asarray(cloud.get_minimal_oriented_bounding_box().R, dtype=np.float64)
     u, _, vt = np.linalg.svd(rot)
     out: FloatArray = u @ vt
+    return out if normals is None else face_frame(normals, out)
+
+
+SMOOTH_NN = 24
+SMOOTH_ROUNDS = 2
+"""Model normals are taken from the face most of their 24 nearest neighbours lie on, then averaged over the
+neighbours facing the same way (within ``FACE_COS``), twice: on a face the sampling noise (a few degrees per
+normal) averages out, and at an edge a normal fitted across both faces (20-40 degrees off either) joins one of
+them. Tilts like these would read as information along a flat face (``line_spread``)."""
+
+
+def smoothed_normals(points: Points, normals: Points) -> Points:
+    """(n, 3) unit normals of the model ``points`` (metres) from their estimated ``normals`` (unit, unsigned):
+    per point, the neighbour normal (of ``SMOOTH_NN``) that most neighbours agree with within ``FACE_COS``, then
+    ``SMOOTH_ROUNDS`` averages over the neighbours agreeing with it."""
+    k = min(SMOOTH_NN, len(points))
+    _, nbr = cKDTree(points).query(points, k=k)
+    near = np.asarray(normals, dtype=np.float64)[nbr]  # (n, k, 3)
+    agree = np.abs(np.einsum("nij,nkj->nik", near, near)) >= FACE_COS  # (n, k, k)
+    out: Points = near[np.arange(len(points)), agree.sum(axis=2).argmax(axis=1)]
+    for _ in range(SMOOTH_ROUNDS):
+        near = out[nbr]
+        cos = np.einsum("nkj,nj->nk", near, out)
+        weight = (np.abs(cos) >= FACE_COS) * np.sign(cos)
+        summed = np.einsum("nk,nkj->nj", weight, near)
+        out = summed / np.maximum(np.linalg.norm(summed, axis=1, keepdims=True), 1e-12)
     return out
+
+
+FACE_COS = math.cos(math.radians(20.0))
+"""A normal within 20 degrees of a box axis counts as a face facing along it (a face's normals scatter by a few
+degrees with the scan noise; a bevel or a cylinder's side at 45 degrees stays out)."""
+FACE_ROUNDS = 10
+
+
+def face_frame(normals: Points, start: FloatArray) -> FloatArray:
+    """(3, 3) orthonormal columns near ``start`` that the model's face normals ((n, 3) unit, unsigned) line up
+    with best (the normals within ``FACE_COS`` of an axis, orthogonal Procrustes, repeated): the object's own
+    box axes. A minimal bounding box is tilted by what sticks out of a flat object (a lever on each face of a door
+    leaf tilts it by 3 degrees, the leaf's thickness traded for its height), and a stretch along a tilted axis
+    shears the object. ``start`` when too few normals face along the axes."""
+    frame = start
+    for _ in range(FACE_ROUNDS):
+        cos = normals @ frame  # (n, 3)
+        k = np.abs(cos).argmax(axis=1)
+        best = cos[np.arange(len(cos)), k]
+        face = np.abs(best) >= FACE_COS
+        if int(face.sum()) < 12:
+            return start
+        signed = normals[face] * np.sign(best[face])[:, None]
+        b = signed.T @ np.eye(3)[k[face]]  # sum of n_i e_k(i)^T
+        u, _, vt = np.linalg.svd(b)
+        turned: FloatArray = u @ vt
+        if np.allclose(turned, frame, atol=1e-9):
+            break
+        frame = turned
+    return frame
 
 
 def _skew(w: Vector3) -> FloatArray:
@@ -97,7 +163,8 @@ def _small_rotation(w: Vector3) -> FloatArray:
 def _linear_system(
     current: Stretched, p: Points, q: Points, n: Points, *, along: FloatArray, huber: float
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Rows, residuals and robust weights of one linearised step: each pair's point-to-plane residual and, at
+    """Rows, residuals and robust weights of one linearised step: each pair's point-to-plane residual (``n``:
+    the carried source normals, unit, target frame) and, at
     ``POINT_WEIGHT``, its three point-to-point components (which see a face's edge, where the planes do not).
     Unknowns: small rotation about the pairs' centroid (3), translation (3), relative factor changes (3)."""
     centre = p.mean(axis=0)
@@ -119,18 +186,32 @@ def _linear_system(
     return a, residual, w
 
 
+def carried_normals(current: Stretched, source_normals: Points) -> Points:
+    """(n, 3) unit normals of the source surface mapped by ``current`` (a linear map turns normals by its
+    inverse transpose; target frame)."""
+    turned = source_normals @ (current.similarity.rotation @ np.linalg.inv(current.linear())).T
+    out: Points = turned / np.maximum(np.linalg.norm(turned, axis=1, keepdims=True), 1e-12)
+    return out
+
+
 def _matched(
     current: Stretched, source: Points, source_normals: Points, *, target_normals: Points, tree: cKDTree, dist_m: float
-) -> tuple[Points, np.ndarray, np.ndarray]:
-    """The moved source, the indices of the target points paired with them, and which pairs count (within
-    ``dist_m`` and normals agreeing within ``NORMAL_COS``)."""
+) -> tuple[Points, Points, np.ndarray, np.ndarray]:
+    """The moved source and its carried normals, the indices of the target points paired with them, and which
+    pairs count (within ``dist_m``, normals agreeing within ``NORMAL_COS``, nearest surface: ``NEAREST_SLACK``)."""
     moved = current.apply_points(source)
     dist, idx = tree.query(moved, distance_upper_bound=dist_m)
     ok = np.isfinite(dist)
-    turned = source_normals @ (current.similarity.rotation @ current.linear()).T
+    turned = carried_normals(current, source_normals)
     agree = np.abs(np.einsum("ij,ij->i", turned[ok], target_normals[idx[ok]]))
-    ok[ok] &= agree >= NORMAL_COS * np.linalg.norm(turned[ok], axis=1)
-    return moved, idx, ok
+    ok[ok] &= agree >= NORMAL_COS
+    q = tree.data[idx[ok]]
+    _, near = cKDTree(moved).query(q, k=min(NEAREST_K, len(moved)))
+    near = near.reshape(len(q), -1)
+    gap = np.abs(np.einsum("ikj,ikj->ik", turned[near], q[:, None, :] - moved[near]))  # to each neighbour's plane
+    own = np.abs(np.einsum("ij,ij->i", turned[ok], q - moved[ok]))
+    ok[ok] &= own <= gap.min(axis=1) + NEAREST_SLACK * dist_m
+    return moved, turned, idx, ok
 
 
 def stretch_icp(
@@ -146,8 +227,8 @@ def stretch_icp(
 ) -> Stretched:
     """Refine ``start`` by point-to-plane ICP over rotation, translation and (``free_stretch``) the three
     stretch factors; source (n, 3) and target (m, 3) metres, ``source_normals`` (n, 3) and ``target_normals``
-    (m, 3) unit (unsigned). Pairs whose normals disagree are left out: a face the scan missed would pull the
-    model's edges in. ``start`` when too few pairs match."""
+    (m, 3) unit (unsigned). The residuals lie along the carried source normals; pairs whose normals disagree
+    are left out: a face the scan missed would pull the model's edges in. ``start`` when too few pairs match."""
     tree = cKDTree(target)
     current = start
     huber = max_distance_m / 3.0
@@ -155,12 +236,12 @@ def stretch_icp(
     along = (source - start.centre) @ start.axes  # (n, 3): coordinates along the box axes
     unknowns = 9 if free_stretch else 6
     for _ in range(iterations):
-        moved, idx, ok = _matched(
+        moved, turned, idx, ok = _matched(
             current, source, source_normals, target_normals=target_normals, tree=tree, dist_m=max_distance_m
         )
         if int(ok.sum()) < 12:
             return current
-        p, q, n = moved[ok], target[idx[ok]], target_normals[idx[ok]]
+        p, q, n = moved[ok], target[idx[ok]], turned[ok]
         a, residual, w = _linear_system(current, p, q, n, along=along[ok], huber=huber)
         a = a[:, :unknowns]
         normal = (a * w[:, None]).T @ a
@@ -207,13 +288,17 @@ def line_spread(
     free_stretch: bool = True,
 ) -> FitSpread:
     """The covariance of ``fitted``'s unknowns (residual variance times the inverse of the pairs' information,
-    ``CORRELATED_POINTS`` pairs counting as one) carried to the line (point, unit direction; source frame)."""
+    ``CORRELATED_POINTS`` pairs counting as one) carried to the line (point, unit direction; source frame). The
+    information comes from the carried source normals: a direction only the scan's noisy normals see stays
+    free."""
     tree = cKDTree(target)
-    moved, idx, ok = _matched(fitted, source, source_normals, target_normals=target_normals, tree=tree, dist_m=dist_m)
+    moved, turned, idx, ok = _matched(
+        fitted, source, source_normals, target_normals=target_normals, tree=tree, dist_m=dist_m
+    )
     unknowns = 9 if free_stretch else 6
     if int(ok.sum()) < 12:
         return FitSpread(float("inf"), float("inf"), float("inf"), int(ok.sum()))
-    p, q, n = moved[ok], target[idx[ok]], target_normals[idx[ok]]
+    p, q, n = moved[ok], target[idx[ok]], turned[ok]
     along = (source[ok] - fitted.centre) @ fitted.axes
     a, residual, w = _linear_system(fitted, p, q, n, along=along, huber=dist_m / 3.0)
     plane_rows = len(p)
