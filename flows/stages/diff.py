@@ -12,7 +12,7 @@ from typing import Any
 from prefect import task
 from prefect.context import TaskRunContext
 
-from flows.caching import RETRIES, RETRY_DELAY_S, retry_on_transient_io, stage_key
+from flows.caching import RETRIED, stage_key
 from tasks.diff.core import diff_descriptors, format_diff
 from tasks.report.refs import DescriptorRef
 from tasks.store import Store
@@ -33,9 +33,7 @@ def diff_cache_key(context: TaskRunContext, parameters: dict[str, Any]) -> str:
     name="diff",
     cache_key_fn=diff_cache_key,
     persist_result=True,
-    retries=RETRIES,
-    retry_delay_seconds=RETRY_DELAY_S,
-    retry_condition_fn=retry_on_transient_io,
+    **RETRIED,
 )
 def diff_task(store_root: str, descriptor: DescriptorRef) -> dict[str, Any] | None:
     """What changed from the previous version (``DescriptorDiff.to_dict()`` plus ``lines`` in words), or None."""

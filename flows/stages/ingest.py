@@ -14,7 +14,7 @@ from typing import Any
 from prefect import task
 from prefect.context import TaskRunContext
 
-from flows.caching import RETRIES, RETRY_DELAY_S, retry_on_transient_io, stage_key
+from flows.caching import RETRIED, stage_key
 from tasks.errors import PbdError
 from tasks.ingest.api import ingest_recording, recording_id_of
 from tasks.report.refs import RecordingRef
@@ -47,9 +47,7 @@ def ingest_cache_key(context: TaskRunContext, parameters: dict[str, Any]) -> str
     name="ingest",
     cache_key_fn=ingest_cache_key,
     persist_result=True,
-    retries=RETRIES,
-    retry_delay_seconds=RETRY_DELAY_S,
-    retry_condition_fn=retry_on_transient_io,
+    **RETRIED,
 )
 def ingest_task(
     source: str,
