@@ -293,7 +293,7 @@ def load_done(workdir: Path) -> dict[str, Any]:
     return done
 
 
-def print_table(rows: list[tuple[str, Measure]], floor: Measure, count: int, per_part: int) -> None:
+def print_table(rows: list[tuple[str, Measure]], floor: Measure, per_part: int) -> None:
     """The runs (seconds and share of each part's first run, wall and CPU) and the headline figures."""
     print()
     head = f"{'run':<48} {'wall s':>8} {'% first':>8} {'CPU s':>8} {'% first':>8} {'server CPU s':>12}"
@@ -307,12 +307,13 @@ def print_table(rows: list[tuple[str, Measure]], floor: Measure, count: int, per
             f"{label + f' ({m.status})':<48} {m.wall_s:8.2f} {100 * m.wall_s / first.wall_s:7.1f}% "
             f"{m.cpu_s:8.2f} {100 * m.cpu_s / first.cpu_s:7.1f}% {m.server_cpu_s:12.2f}  {stages}"
         )
-    target = "< 5%" if count >= 200 else "< 10%"
     print()
     print(f"{'figure':<58} {'wall':>7} {'CPU':>7} {'target':>7}")
     for part in range(0, len(rows) - 1 if per_part > 1 else 0, per_part):
         first, again = rows[part][1], rows[part + 1][1]
         name = rows[part][0].split(":")[0] + ": unchanged re-run, % of first run"
+        count = int(name.split("(")[1].split(")")[0])
+        target = "< 5%" if count >= 200 else "< 10%"
         print(f"{name:<58} {100 * again.wall_s / first.wall_s:6.1f}% {100 * again.cpu_s / first.cpu_s:6.1f}% "
               f"{target:>7}")  # fmt: skip
 
@@ -322,36 +323,38 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--quick", action="store_true", help="4 recordings instead of 20")
     parser.add_argument("--count", type=int, default=None, help="number of recordings (default 20, quick 4)")
-    parser.add_argument("--held-out", type=int, default=None, help="held-out recordings (default count/10, >= 4)")
+    parser.add_argument("--held-out", type=int, default=None, help="held-out recordings (default: as many, <= 20)")
     parser.add_argument("--workers", type=int, default=2, help="recordings in flight")
     parser.add_argument("--workdir", type=Path, default=None, help="keep (and reuse) archives, stores, runs here")
     parser.add_argument("--redo", action="store_true", help="with --workdir: measure the unchanged re-run again")
-    parser.add_argument("--development-only", action="store_true", help="skip the held-out part")
+    parser.add_argument("--part", choices=("both", "development", "held-out"), default="both", help="which part")
     parser.add_argument("--runs", type=int, choices=(1, 2, 3), default=3, help="the first N of the three runs")
     args = parser.parse_args()
     count = args.count or (4 if args.quick else 20)
-    held_out = args.held_out or max(4, count // 10)
+    held_out = args.held_out or min(count, 20)
     tmp = args.workdir.resolve() if args.workdir else Path(tempfile.mkdtemp(prefix="pbd-bench-archive-"))
     home = tmp / "prefect-home"
     home.mkdir(parents=True, exist_ok=True)
     done = load_done(tmp) if args.workdir else {"_file": None}
+    signal.signal(signal.SIGTERM, signal.default_int_handler)  # a TERM stops the server started here too
     try:
         t0 = time.perf_counter()
-        make_archive(tmp / "development", count, first_seed=0)
-        if not args.development_only:
-            make_archive(tmp / "held-out", held_out, first_seed=1000)
-        print(f"archives: {count} + {held_out} recordings ready in {time.perf_counter() - t0:.1f} s ({tmp})")
+        # archive folder, recordings, first seed, store folder
+        parts = [("development", count, 0, "store-dev"), ("held-out", held_out, 1000, "store-held")]
+        parts = [p for p in parts if args.part in ("both", p[0])]
+        for folder, n, first_seed, _ in parts:
+            make_archive(tmp / folder, n, first_seed)
+        print(f"archives: {', '.join(f'{p[0]} {p[1]}' for p in parts)} in {time.perf_counter() - t0:.1f} s ({tmp})")
         with local_server(home) as (url, pid):
             os.environ["PREFECT_API_URL"] = url
             print(f"server: {url}", flush=True)
             floor, _ = timed([sys.executable, "-c", FLOOR], pid)
-            dev = f"development ({count})"
             common = {"workers": args.workers, "server_pid": pid, "done": done, "redo": args.redo, "runs": args.runs}
-            rows = bench_part(dev, tmp / "development", tmp / "store-dev", **common)
-            if not args.development_only:
-                held = f"held out ({held_out})"
-                rows += bench_part(held, tmp / "held-out", tmp / "store-held", **common)
-        print_table(rows, floor, count, args.runs)
+            rows: list[tuple[str, Measure]] = []
+            for folder, n, _, store in parts:
+                label = f"{folder.replace('-', ' ')} ({n})"
+                rows += bench_part(label, tmp / folder, tmp / store, **common)
+        print_table(rows, floor, args.runs)
     finally:
         if not args.workdir:
             shutil.rmtree(tmp, ignore_errors=True)
