@@ -26,7 +26,7 @@ from prefect.futures import PrefectFuture, as_completed
 from flows.caching import STAGE_TIMEOUT_S, on_store
 from flows.known import KnownResults, NotKnownError
 from flows.progress import notify
-from flows.stages.diff import diff_task
+from flows.stages.diff import diff_task, nothing_to_compare
 from flows.stages.ingest import ingest_task
 from flows.stages.learn import fit_task, grasp_task, segment_task, store_descriptor_task
 from flows.stages.simulate import simulate_task
@@ -132,6 +132,8 @@ def known_chain(
     def lookup(task: Task[..., Any], *args: Any, **kwargs: Any) -> Any:
         if task is tasks.store:
             return known.unchanged(args[1])
+        if task is tasks.diff and nothing_to_compare(args[1]):
+            return None
         return known.cached(task, *args, **kwargs)
 
     try:

@@ -21,6 +21,11 @@ DIFF_MODULES = ("tasks.diff", "schemas")
 """Modules whose source is the diff's code version."""
 
 
+def nothing_to_compare(descriptor: DescriptorRef) -> bool:
+    """True for a new or unchanged version: there is no previous version to compare, the diff is None."""
+    return descriptor.previous is None
+
+
 def diff_cache_key(context: TaskRunContext, parameters: dict[str, Any]) -> str:
     """Cache key of a diff: this descriptor's id and ``name@vN`` of the version before it."""
     del context
@@ -37,8 +42,8 @@ def diff_cache_key(context: TaskRunContext, parameters: dict[str, Any]) -> str:
 )
 def diff_task(store_root: str, descriptor: DescriptorRef) -> dict[str, Any] | None:
     """What changed from the previous version (``DescriptorDiff.to_dict()`` plus ``lines`` in words), or None."""
-    if descriptor.previous is None:
+    if nothing_to_compare(descriptor):
         return None
     store = Store(store_root)
-    diff = diff_descriptors(store.load(descriptor.previous), store.load(descriptor.path))
+    diff = diff_descriptors(store.load(str(descriptor.previous)), store.load(descriptor.path))
     return {**diff.to_dict(), "lines": format_diff(diff)}
