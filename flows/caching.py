@@ -89,3 +89,11 @@ def retry_on_transient_io(task: Task[Any, Any], task_run: TaskRun, state: State[
     del task, task_run
     err = state.result(raise_on_failure=False)
     return isinstance(err, BaseException) and is_transient_io_error(err)
+
+
+RETRIED: dict[str, Any] = {
+    "retries": RETRIES,
+    "retry_delay_seconds": RETRY_DELAY_S,
+    "retry_condition_fn": retry_on_transient_io,
+}
+"""The retry options of every stage task (``@task(..., **RETRIED)``): retried only after a transient IO error."""

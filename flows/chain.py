@@ -5,13 +5,17 @@ simulate, and the diff against the previous version.
 future, so recordings proceed independently; ``collect`` waits for them, logs the outcome (chain, version
 stored, simulation) and summarises it. A failed stage fails its recording: the others go on, the report lists
 the error, and the flow run ends Failed (``flows.summary.finish``).
+
+A recording whose every stage result is already known (``flows.known``: cached under the key its task would
+compute, the descriptor already the latest version) is summarised from those results without submitting a
+task; its log line says so. One definition of the chain (``chain_steps``) serves both ways.
 """
 
 from __future__ import annotations
 
 import logging
 from collections import deque
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -20,8 +24,9 @@ from prefect import Task, get_run_logger
 from prefect.futures import PrefectFuture, as_completed
 
 from flows.caching import STAGE_TIMEOUT_S, on_store
+from flows.known import KnownResults, NotKnownError
 from flows.progress import notify
-from flows.stages.diff import diff_task
+from flows.stages.diff import diff_task, nothing_to_compare
 from flows.stages.ingest import ingest_task
 from flows.stages.learn import fit_task, grasp_task, segment_task, store_descriptor_task
 from flows.stages.simulate import simulate_task
@@ -47,15 +52,17 @@ class ChainSettings:
 
 @dataclass(frozen=True)
 class Chain:
-    """The submitted tasks of one recording, in pipeline order (stage name → future)."""
+    """The submitted tasks of one recording, in pipeline order (stage name → future; the ingested recording's
+    reference itself when it was known before submitting)."""
 
     source: Path
-    futures: dict[str, PrefectFuture[Any]]
+    futures: dict[str, Any]
 
     @property
     def last(self) -> PrefectFuture[Any]:
         """The future that finishes last: the final stage's (``collect`` waits for every stage anyway)."""
-        return list(self.futures.values())[-1]
+        last: PrefectFuture[Any] = list(self.futures.values())[-1]
+        return last
 
 
 class StageTasks:
@@ -71,38 +78,69 @@ class StageTasks:
         self.diff = on_store(diff_task, store_root)
 
 
+def chain_steps(
+    tasks: StageTasks,
+    settings: ChainSettings,
+    name: str | None,
+    ingested: Any,
+    run: Callable[..., Any],
+) -> dict[str, Any]:
+    """The chain of one ingested recording, segment → fit → grasp → store → simulate, diff, each stage as
+    ``run(task, *args, **kwargs)`` on its upstream's outcome: ``Task.submit`` (futures) or a lookup of known
+    results (values). Stage name → outcome, in pipeline order, ingest first.
+
+    ``name`` names the descriptor (default: ``settings.name``, else learning's ``<action>-<object>``).
+    """
+    root, params, seed = settings.store_root, settings.params, settings.seed
+    out: dict[str, Any] = {"ingest": ingested}
+    out["segment"] = run(tasks.segment, root, ingested, params, seed=seed)
+    out["fit"] = run(tasks.fit, root, out["segment"], params)
+    grasp = settings.grasp
+    out["grasp"] = run(tasks.grasp, root, out["fit"], params, grasp=grasp, name=name or settings.name, seed=seed)
+    out["store"] = run(tasks.store, root, out["grasp"])
+    if settings.scene_seed is None:  # the scene instance the recording's meta names (pbd synth), else nominal
+        out["simulate"] = run(tasks.simulate, root, out["store"], recording=ingested)
+    else:
+        out["simulate"] = run(tasks.simulate, root, out["store"], seed=settings.scene_seed)
+    out["diff"] = run(tasks.diff, root, out["store"])
+    return out
+
+
+def _submit(task: Task[..., Any], *args: Any, **kwargs: Any) -> PrefectFuture[Any]:
+    future: PrefectFuture[Any] = task.submit(*args, **kwargs)
+    return future
+
+
 def submit_chain(
     tasks: StageTasks,
     source: Path,
     settings: ChainSettings,
     name: str | None = None,
-    ingested: PrefectFuture[RecordingRef] | None = None,
+    ingested: PrefectFuture[RecordingRef] | RecordingRef | None = None,
 ) -> Chain:
-    """Submit ingest → segment → fit → grasp → store → simulate, diff for one recording; returns futures.
+    """Submit ingest → segment → fit → grasp → store → simulate, diff for one recording; returns futures."""
+    ingested = ingested or tasks.ingest.submit(str(source), settings.store_root)
+    return Chain(source, chain_steps(tasks, settings, name, ingested, _submit))
 
-    ``name`` names the descriptor (default: ``settings.name``, else learning's ``<action>-<object>``).
-    """
-    root, params, seed = settings.store_root, settings.params, settings.seed
-    ingested = ingested or tasks.ingest.submit(str(source), root)
-    segmented = tasks.segment.submit(root, ingested, params, seed=seed)
-    fitted = tasks.fit.submit(root, segmented, params)
-    learned = tasks.grasp.submit(root, fitted, params, grasp=settings.grasp, name=name or settings.name, seed=seed)
-    stored = tasks.store.submit(root, learned)
-    if settings.scene_seed is None:  # the scene instance the recording's meta names (pbd synth), else nominal
-        simulated = tasks.simulate.submit(root, stored, recording=ingested)
-    else:
-        simulated = tasks.simulate.submit(root, stored, seed=settings.scene_seed)
-    diffed = tasks.diff.submit(root, stored)
-    futures: dict[str, PrefectFuture[Any]] = {
-        "ingest": ingested,
-        "segment": segmented,
-        "fit": fitted,
-        "grasp": learned,
-        "store": stored,
-        "simulate": simulated,
-        "diff": diffed,
-    }
-    return Chain(source, futures)
+
+def known_chain(
+    tasks: StageTasks, known: KnownResults, source: Path, settings: ChainSettings, *, name: str, ingested: RecordingRef
+) -> EntryResult | None:
+    """The outcome of an ingested recording whose every stage result is known (cached, and its descriptor the
+    latest version of its name) without running a task, else None."""
+
+    def lookup(task: Task[..., Any], *args: Any, **kwargs: Any) -> Any:
+        if task is tasks.store:
+            return known.unchanged(args[1])
+        if task is tasks.diff and nothing_to_compare(args[1]):
+            return None
+        return known.cached(task, *args, **kwargs)
+
+    try:
+        results = chain_steps(tasks, settings, name, ingested, lookup)
+    except NotKnownError:
+        return None
+    return entry_of(source, results, None)
 
 
 def collect(chain: Chain, timeout_s: float = STAGE_TIMEOUT_S) -> EntryResult:
@@ -111,6 +149,9 @@ def collect(chain: Chain, timeout_s: float = STAGE_TIMEOUT_S) -> EntryResult:
     results: dict[str, Any] = {}
     error: str | None = None
     for stage, future in chain.futures.items():
+        if not isinstance(future, PrefectFuture):  # a result known before the chain was submitted
+            results[stage] = future
+            continue
         future.wait(timeout=timeout_s)
         state = future.state
         if not state.is_final():
@@ -120,10 +161,17 @@ def collect(chain: Chain, timeout_s: float = STAGE_TIMEOUT_S) -> EntryResult:
         elif error is None:
             value = state.result(raise_on_failure=False) if state.is_failed() or state.is_crashed() else None
             error = f"{stage}: {value}" if isinstance(value, BaseException) else f"{stage}: {state.name}"
+    entry = entry_of(chain.source, results, error)
+    get_run_logger().log(logging.ERROR if error else logging.INFO, "%s", outcome_line(entry))
+    return entry
+
+
+def entry_of(source: Path, results: Mapping[str, Any], error: str | None) -> EntryResult:
+    """A recording's summary from its stages' results (stage name → result) and the first failure."""
     desc = results.get("grasp")
     extra = {"chain": " → ".join(p.kind for p in desc.chain) or "(empty)"} if desc is not None else {}
-    entry = EntryResult(
-        source=str(chain.source),
+    return EntryResult(
+        source=str(source),
         recording=results.get("ingest"),
         descriptor=results.get("store"),
         simulation=results.get("simulate"),
@@ -131,8 +179,6 @@ def collect(chain: Chain, timeout_s: float = STAGE_TIMEOUT_S) -> EntryResult:
         error=error,
         extra=extra,
     )
-    get_run_logger().log(logging.ERROR if error else logging.INFO, "%s", outcome_line(entry))
-    return entry
 
 
 def outcome_line(entry: EntryResult) -> str:
@@ -183,18 +229,39 @@ def run_chains(
     """
     tasks = StageTasks(settings.store_root)
     store = Store(settings.store_root)
+    known = KnownResults(settings.store_root)
     notify(0, len(sources), "")
-    ingested = {source: tasks.ingest.submit(str(source), settings.store_root) for source in sources}
+    ingested: dict[Path, PrefectFuture[RecordingRef] | RecordingRef] = {}
+    for source in sources:
+        try:
+            ingested[source] = known.cached(tasks.ingest, str(source), settings.store_root)
+        except NotKnownError:
+            ingested[source] = tasks.ingest.submit(str(source), settings.store_root)
     metas: dict[Path, dict[str, Any]] = {}
     results: dict[Path, EntryResult] = {}
-    for source, future in ingested.items():
-        future.wait()
-        if future.state.is_completed():
-            metas[source] = recording_meta(store.recording_dir(future.result().recording_id))
+    for source, outcome in ingested.items():
+        if isinstance(outcome, RecordingRef):
+            metas[source] = recording_meta(store.recording_dir(outcome.recording_id))
+            continue
+        outcome.wait()
+        if outcome.state.is_completed():
+            ingested[source] = outcome.result()
+            metas[source] = recording_meta(store.recording_dir(outcome.result().recording_id))
         else:  # nothing downstream of a recording that cannot be read
-            results[source] = collect(Chain(source, {"ingest": future}))
+            results[source] = collect(Chain(source, {"ingest": outcome}))
     names = run_names(sources, metas, root)
-    pending = deque(s for s in sources if s not in results)
+    pending: deque[Path] = deque()
+    for source in sources:
+        recording = ingested[source]
+        if source in results or not isinstance(recording, RecordingRef):
+            continue
+        entry = known_chain(tasks, known, source, settings, name=settings.name or names[source], ingested=recording)
+        if entry is None:
+            pending.append(source)
+            continue
+        results[source] = entry
+        get_run_logger().info("%s (every stage known: no task run)", outcome_line(entry))
+        notify(len(results), len(sources), source.name)
     running: dict[PrefectFuture[Any], Chain] = {}
     while pending or running:
         while pending and len(running) < max(1, workers):

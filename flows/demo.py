@@ -10,12 +10,12 @@ from typing import Any
 from prefect import flow, task
 from prefect.cache_policies import NO_CACHE
 from prefect.client.schemas.objects import State
-from prefect.task_runners import ThreadPoolTaskRunner
 
 from flows.chain import ChainSettings, run_chains
 from flows.reprocess_archive import DEFAULT_WORKERS, MAX_THREADS
 from flows.stages.report import report_task
 from flows.summary import RunSummary, finish
+from flows.task_runner import LocalThreadPoolTaskRunner
 from tasks.store import resolve_store_root
 from tasks.synth.samples import ensure_sample_recordings
 
@@ -31,7 +31,7 @@ def sample_recordings_task(folder: str) -> list[str]:
     return sorted(str(p) for p in paths)
 
 
-@flow(name="pbd-demo", task_runner=ThreadPoolTaskRunner(max_workers=MAX_THREADS), persist_result=False)  # type: ignore[arg-type]  # TaskRunner is invariant in its future type
+@flow(name="pbd-demo", task_runner=LocalThreadPoolTaskRunner(max_workers=MAX_THREADS), persist_result=False)  # type: ignore[arg-type]  # TaskRunner is invariant in its future type
 def demo(
     store: str | None = None,
     samples: str = DEFAULT_SAMPLES,

@@ -7,15 +7,15 @@ from typing import Any
 
 from prefect import flow
 from prefect.client.schemas.objects import State
-from prefect.task_runners import ThreadPoolTaskRunner
 
 from flows.chain import ChainSettings, run_chains
 from flows.stages.report import report_task
 from flows.summary import RunSummary, finish
+from flows.task_runner import LocalThreadPoolTaskRunner
 from tasks.store import resolve_store_root
 
 
-@flow(name="process-recording", task_runner=ThreadPoolTaskRunner[Any](max_workers=4), persist_result=False)  # type: ignore[arg-type]  # TaskRunner is invariant in its future type
+@flow(name="process-recording", task_runner=LocalThreadPoolTaskRunner(max_workers=4), persist_result=False)  # type: ignore[arg-type]  # TaskRunner is invariant in its future type
 def process_recording(
     recording: str,
     *,

@@ -13,13 +13,13 @@ from typing import Any
 from prefect import flow
 from prefect.client.schemas.objects import State
 from prefect.states import Failed
-from prefect.task_runners import ThreadPoolTaskRunner
 
 from flows.address import check_address, dask_runner
 from flows.chain import ChainSettings, run_chains
 from flows.discover import find_recordings
 from flows.stages.report import report_task
 from flows.summary import RunSummary, finish, summary_of
+from flows.task_runner import LocalThreadPoolTaskRunner
 from tasks.store import resolve_store_root
 
 DEFAULT_WORKERS = 2
@@ -29,7 +29,7 @@ MAX_THREADS = 32
 """Bound of the thread-pool task runner (Prefect's default is unbounded); ``workers`` bounds the real work."""
 
 
-THREADS: Any = ThreadPoolTaskRunner(max_workers=MAX_THREADS)
+THREADS: Any = LocalThreadPoolTaskRunner(max_workers=MAX_THREADS)
 """The archive run's default task runner (typed Any: a TaskRunner is invariant in its future type)."""
 
 

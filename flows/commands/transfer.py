@@ -4,73 +4,43 @@ from __future__ import annotations
 
 import argparse
 import json
-import re
 import sys
 from pathlib import Path
 
-import numpy as np
-
+from flows.transfer_inputs import TransferOptions, carry, read_target, refusal
 from schemas.descriptor import ObjectRef
 from tasks.errors import TransferError
 from tasks.store import Store, model_sha256, resolve_store_root, write_bytes_atomic
-from tasks.transfer.api import RegistrationParams, transfer_descriptor
-from tasks.transfer.model_io import (
-    is_recording_ref,
-    read_model_file,
-    read_recording_model,
-    source_model_of,
-)
-
-
-def _label(text: str) -> str:
-    """A name usable in descriptor names (``[A-Za-z0-9._-]``)."""
-    out = re.sub(r"[^A-Za-z0-9._-]+", "-", text).strip("-._")
-    return out or "model"
+from tasks.transfer.model_io import source_model_of
 
 
 def run(args: argparse.Namespace) -> int:
     """Register, carry, store; print ``name@vN``, the id and the registration figures."""
 
-    if args.crop_radius is not None and not args.crop_radius > 0.0:
-        msg = f"--crop-radius {args.crop_radius}: must be positive (metres)"
-        raise TransferError(msg)
+    options = TransferOptions(
+        name=args.name,
+        whole=args.whole,
+        crop_radius_m=args.crop_radius,
+        strict=args.strict,
+        replan_grasp=args.replan_grasp,
+        seed=args.seed,
+        accept_ambiguous=args.accept_ambiguous,
+        scale_range=tuple(args.scale_range) if args.scale_range else None,
+    )
     store = Store(resolve_store_root(args.store))
     source = store.load(args.descriptor)
     source_points = source_model_of(store, source.object.model_sha256, source.object.model_uri, args.descriptor)
-    if is_recording_ref(store, args.model):
-        target_points, label, object_name = read_recording_model(store, args.model)
-    else:
-        path = Path(args.model)
-        target_points = read_model_file(path, seed=args.seed)
-        label, object_name = str(path), _label(path.stem)
-    sha = model_sha256(target_points)  # stored only once the transfer succeeded
-    target_ref = ObjectRef(object_name, sha, len(target_points), str(store.model_path(sha)))
-    scale_range = tuple(args.scale_range) if args.scale_range else RegistrationParams().scale_range
-    if not 0.0 < scale_range[0] < scale_range[1]:
-        msg = f"--scale-range {scale_range[0]:g} {scale_range[1]:g}: need 0 < LO < HI"
-        raise TransferError(msg)
-    params = RegistrationParams(crop_radius_m=args.crop_radius, whole=args.whole, scale_range=scale_range)
-    name = args.name or f"{source.name}-to-{_label(object_name)}"
-    result = transfer_descriptor(
-        source,
-        source_points,
-        target_points,
-        target_ref,
-        name=name,
-        params=params,
-        strict=args.strict,
-        replan_grasp=args.replan_grasp,
-        target_label=label,
-        rng=np.random.default_rng(args.seed),
-    )
+    target = read_target(store, args.model, seed=options.seed)
+    sha = model_sha256(target.points)  # stored only once the transfer succeeded
+    target_ref = ObjectRef(target.object_name, sha, len(target.points), str(store.model_path(sha)))
+    result = carry(source, source_points, target.points, target_ref, target_label=target.label, options=options)
     info = result.descriptor.extra_provenance["transfer"]
-    if result.poor and not args.accept_ambiguous:
+    if (refused := refusal(result, options)) is not None:
         if args.json:
             outcome = {"refused": True, "reasons": list(result.reasons), "candidates": info["candidates"]}
             sys.stdout.write(json.dumps(outcome, indent=2) + "\n")
-        msg = f"refused (--accept-ambiguous writes the best guess): {'; '.join(result.reasons)}"
-        raise TransferError(msg)
-    store.put_model(target_points)
+        raise TransferError(refused)
+    store.put_model(target.points)
     put = store.put_descriptor(result.descriptor)
     if args.out:
         write_bytes_atomic(Path(args.out), result.descriptor.to_json().encode())

@@ -12,13 +12,18 @@ from typing import Any
 from prefect import task
 from prefect.context import TaskRunContext
 
-from flows.caching import RETRIES, RETRY_DELAY_S, retry_on_transient_io, stage_key
+from flows.caching import RETRIED, stage_key
 from tasks.diff.core import diff_descriptors, format_diff
 from tasks.report.refs import DescriptorRef
 from tasks.store import Store
 
 DIFF_MODULES = ("tasks.diff", "schemas")
 """Modules whose source is the diff's code version."""
+
+
+def nothing_to_compare(descriptor: DescriptorRef) -> bool:
+    """True for a new or unchanged version: there is no previous version to compare, the diff is None."""
+    return descriptor.previous is None
 
 
 def diff_cache_key(context: TaskRunContext, parameters: dict[str, Any]) -> str:
@@ -33,14 +38,12 @@ def diff_cache_key(context: TaskRunContext, parameters: dict[str, Any]) -> str:
     name="diff",
     cache_key_fn=diff_cache_key,
     persist_result=True,
-    retries=RETRIES,
-    retry_delay_seconds=RETRY_DELAY_S,
-    retry_condition_fn=retry_on_transient_io,
+    **RETRIED,
 )
 def diff_task(store_root: str, descriptor: DescriptorRef) -> dict[str, Any] | None:
     """What changed from the previous version (``DescriptorDiff.to_dict()`` plus ``lines`` in words), or None."""
-    if descriptor.previous is None:
+    if nothing_to_compare(descriptor):
         return None
     store = Store(store_root)
-    diff = diff_descriptors(store.load(descriptor.previous), store.load(descriptor.path))
+    diff = diff_descriptors(store.load(str(descriptor.previous)), store.load(descriptor.path))
     return {**diff.to_dict(), "lines": format_diff(diff)}

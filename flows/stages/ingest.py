@@ -1,6 +1,7 @@
 """Prefect wrapper of ingest (``tasks.ingest.api.ingest_recording``): a cached, retried task over references.
 
-The cache key is the recording's content id (``recording_id_of``: SHA-256 of its bytes), the content ids of
+The cache key is the recording's content id (``recording_id_of``: SHA-256 of its bytes, remembered under the
+file's state by ``flows.content_ids`` so that an unchanged file is not read again), the content ids of
 the topic map and object model files if given, ``recover``, and the code version of the ingest modules.
 The result is a ``RecordingRef`` (the id and the source path); the data stays in the store's Parquet.
 """
@@ -14,9 +15,10 @@ from typing import Any
 from prefect import task
 from prefect.context import TaskRunContext
 
-from flows.caching import RETRIES, RETRY_DELAY_S, retry_on_transient_io, stage_key
+from flows.caching import RETRIED, stage_key
+from flows.content_ids import content_id
 from tasks.errors import PbdError
-from tasks.ingest.api import ingest_recording, recording_id_of
+from tasks.ingest.api import ingest_recording
 from tasks.report.refs import RecordingRef
 from tasks.store import Store
 
@@ -35,7 +37,7 @@ def ingest_cache_key(context: TaskRunContext, parameters: dict[str, Any]) -> str
     """Cache key of an ingest run; None (no caching) when the source cannot be read: the task reports why."""
     del context
     try:
-        recording_id = recording_id_of(Path(parameters["source"]))
+        recording_id = content_id(parameters["store_root"], Path(parameters["source"]))
         refs = {"recording": recording_id, "topics": _file_id(parameters.get("topics")),
                 "object_model": _file_id(parameters.get("object_model"))}  # fmt: skip
     except (OSError, PbdError):
@@ -47,9 +49,7 @@ def ingest_cache_key(context: TaskRunContext, parameters: dict[str, Any]) -> str
     name="ingest",
     cache_key_fn=ingest_cache_key,
     persist_result=True,
-    retries=RETRIES,
-    retry_delay_seconds=RETRY_DELAY_S,
-    retry_condition_fn=retry_on_transient_io,
+    **RETRIED,
 )
 def ingest_task(
     source: str,

@@ -20,7 +20,7 @@ from prefect import task
 from prefect.cache_policies import NO_CACHE
 from prefect.context import TaskRunContext
 
-from flows.caching import RETRIES, RETRY_DELAY_S, retry_on_transient_io, stage_key
+from flows.caching import RETRIED, stage_key
 from flows.cli_args import ParameterError
 from schemas.descriptor import Descriptor, Primitive
 from schemas.tables import OBJECT_MODEL_FILE
@@ -130,12 +130,7 @@ def grasp_cache_key(context: TaskRunContext, parameters: dict[str, Any]) -> str 
     return stage_key("grasp", GRASP_MODULES, refs, params)
 
 
-_STAGE_OPTIONS: dict[str, Any] = {
-    "persist_result": True,
-    "retries": RETRIES,
-    "retry_delay_seconds": RETRY_DELAY_S,
-    "retry_condition_fn": retry_on_transient_io,
-}
+_STAGE_OPTIONS: dict[str, Any] = {"persist_result": True, **RETRIED}
 
 
 @task(name="segment", cache_key_fn=segment_cache_key, **_STAGE_OPTIONS)
@@ -181,9 +176,7 @@ def grasp_task(
     name="store-descriptor",
     cache_policy=NO_CACHE,
     persist_result=False,
-    retries=RETRIES,
-    retry_delay_seconds=RETRY_DELAY_S,
-    retry_condition_fn=retry_on_transient_io,
+    **RETRIED,
 )
 def store_descriptor_task(store_root: str, descriptor: Descriptor) -> DescriptorRef:
     """Store the descriptor (and its object model) as the next version of its name unless the latest version

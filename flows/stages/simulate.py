@@ -16,7 +16,7 @@ import numpy as np
 from prefect import task
 from prefect.context import TaskRunContext
 
-from flows.caching import RETRIES, RETRY_DELAY_S, retry_on_transient_io, stage_key
+from flows.caching import RETRIED, stage_key
 from tasks.errors import SceneError, SimulationError, StoreError
 from tasks.report.refs import DescriptorRef, RecordingRef, SimulationRef
 from tasks.simulate.api import simulate_descriptor
@@ -42,9 +42,7 @@ def simulate_cache_key(context: TaskRunContext, parameters: dict[str, Any]) -> s
     name="simulate",
     cache_key_fn=simulate_cache_key,
     persist_result=True,
-    retries=RETRIES,
-    retry_delay_seconds=RETRY_DELAY_S,
-    retry_condition_fn=retry_on_transient_io,
+    **RETRIED,
 )
 def simulate_task(
     store_root: str,

@@ -13,18 +13,17 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 from prefect import task
 from prefect.cache_policies import NO_CACHE
 from prefect.context import TaskRunContext
 
-from flows.caching import RETRIES, RETRY_DELAY_S, retry_on_transient_io, stage_key
+from flows.caching import RETRIED, stage_key
+from flows.transfer_inputs import TransferOptions, carry, read_target, refusal
 from schemas.descriptor import Descriptor, ObjectRef
 from tasks.errors import TransferError
 from tasks.report.refs import DescriptorRef
 from tasks.store import Store
-from tasks.transfer.api import RegistrationParams, transfer_descriptor
-from tasks.transfer.model_io import is_recording_ref, read_model_file, read_recording_model, source_model_of
+from tasks.transfer.model_io import source_model_of
 
 TRANSFER_MODULES = ("tasks.transfer", "tasks.grasp", "schemas")
 """Modules whose source is the transfer stage's code version."""
@@ -43,10 +42,6 @@ class ModelRef:
     """The ingested recording the model came from (its meta may name a built-in scene instance), else None."""
 
 
-def _label(text: str) -> str:
-    return re.sub(r"[^A-Za-z0-9._-]+", "-", text).strip("-._") or "model"
-
-
 @task(name="resolve-descriptor", cache_policy=NO_CACHE, persist_result=False)
 def resolve_descriptor_task(store_root: str, ref: str) -> DescriptorRef:
     """The stored version (or file) a descriptor reference (path, id prefix, ``name@vN``) points at."""
@@ -62,79 +57,44 @@ def resolve_descriptor_task(store_root: str, ref: str) -> DescriptorRef:
     name="target-model",
     cache_policy=NO_CACHE,
     persist_result=False,
-    retries=RETRIES,
-    retry_delay_seconds=RETRY_DELAY_S,
-    retry_condition_fn=retry_on_transient_io,
+    **RETRIED,
 )
 def target_model_task(store_root: str, model: str, seed: int = 0) -> ModelRef:
     """Store the target model (a model file, or the object model of a recording) by its sha256."""
     store = Store(store_root)
-    recording_id = None
-    if is_recording_ref(store, model):
-        points, label, object_name = read_recording_model(store, model)
-        recording_id = label
-    else:
-        path = Path(model)
-        points = read_model_file(path, seed=seed)
-        label, object_name = str(path), _label(path.stem)
-    sha, stored = store.put_model(points)
-    return ModelRef(sha, len(points), str(stored), object_name, label, recording_id)
+    target = read_target(store, model, seed=seed)
+    sha, stored = store.put_model(target.points)
+    return ModelRef(sha, len(target.points), str(stored), target.object_name, target.label, target.recording_id)
 
 
 def transfer_cache_key(context: TaskRunContext, parameters: dict[str, Any]) -> str:
-    """Cache key of a transfer: source descriptor id, target model sha256, parameters, seed, code version."""
+    """Cache key of a transfer: source descriptor id, target model sha256, the options, code version."""
     del context
     source: DescriptorRef = parameters["descriptor"]
     target: ModelRef = parameters["target"]
-    keys = ("name", "whole", "crop_radius_m", "strict", "replan_grasp", "seed", "accept_ambiguous", "scale_range")
-    params = {k: parameters.get(k) for k in keys}
+    options: TransferOptions = parameters.get("options") or TransferOptions()
     refs = {"descriptor": source.id, "target_model": target.sha256}
-    return stage_key("transfer", TRANSFER_MODULES, refs, params)
+    return stage_key("transfer", TRANSFER_MODULES, refs, options.to_dict())
 
 
 @task(
     name="transfer",
     cache_key_fn=transfer_cache_key,
     persist_result=True,
-    retries=RETRIES,
-    retry_delay_seconds=RETRY_DELAY_S,
-    retry_condition_fn=retry_on_transient_io,
+    **RETRIED,
 )
 def transfer_task(
-    store_root: str,
-    descriptor: DescriptorRef,
-    target: ModelRef,
-    *,
-    name: str | None = None,
-    whole: bool = False,
-    crop_radius_m: float | None = None,
-    strict: bool = False,
-    replan_grasp: bool = False,
-    seed: int = 0,
-    accept_ambiguous: bool = False,
-    scale_range: tuple[float, float] | None = None,
+    store_root: str, descriptor: DescriptorRef, target: ModelRef, options: TransferOptions | None = None
 ) -> Descriptor:
     """Register the source descriptor's object model onto ``target`` and carry chain and grasp across; a poor,
-    ambiguous or loose registration is a ``TransferError`` unless ``accept_ambiguous``."""
+    ambiguous or loose registration is a ``TransferError`` unless ``options.accept_ambiguous``."""
+    options = options or TransferOptions()
     store = Store(store_root)
     source = Descriptor.from_json(Path(descriptor.path).read_text(), source=descriptor.path)
     source_points = source_model_of(store, source.object.model_sha256, source.object.model_uri, descriptor.path)
+    target_ref = ObjectRef(target.object_name, target.sha256, target.points, target.path)
     target_points = store.load_model(target.sha256)
-    result = transfer_descriptor(
-        source,
-        source_points,
-        target_points,
-        ObjectRef(target.object_name, target.sha256, target.points, target.path),
-        name=name or f"{source.name}-to-{_label(target.object_name)}",
-        params=RegistrationParams(
-            crop_radius_m=crop_radius_m, whole=whole, scale_range=scale_range or RegistrationParams().scale_range
-        ),
-        strict=strict,
-        replan_grasp=replan_grasp,
-        target_label=target.label,
-        rng=np.random.default_rng(seed),
-    )
-    if result.poor and not accept_ambiguous:
-        msg = f"refused: {'; '.join(result.reasons)} (accept_ambiguous writes the best guess)"
-        raise TransferError(msg)
+    result = carry(source, source_points, target_points, target_ref, target_label=target.label, options=options)
+    if (refused := refusal(result, options, accept="accept_ambiguous")) is not None:
+        raise TransferError(refused)
     return result.descriptor

@@ -6,12 +6,16 @@ import json
 import os
 import subprocess
 import sys
+import time
 from collections import Counter
 from pathlib import Path
+from typing import Any
 
 import pytest
+from prefect.client.schemas.objects import State
 
 from flows.caching import results_dir
+from flows.content_ids import MEMO_FILENAME
 from flows.process_recording import process_recording
 from flows.reprocess_archive import reprocess_archive
 from flows.stages import ingest as ingest_module
@@ -72,8 +76,10 @@ def test_unchanged_archive_does_no_stage_work_and_a_change_reruns_what_follows_i
     assert first["report"] is not None and Path(first["report"]).is_file()
     figures = sorted((store / "reports" / "figures").iterdir())
 
-    again = reprocess_archive(str(archive), store=str(store), workers=2)
+    again_state = reprocess_archive(str(archive), store=str(store), workers=2, return_state=True)
+    again = summary_of(again_state)
     assert runs(calls) == [3, 3, 3, 3, 1]  # all cached
+    assert stage_states(again_state) == {}  # every result known: not one stage task submitted
     assert again["counts"] == {"new": 0, "changed": 0, "unchanged": 3, "failed": 0}
     assert Path(again["report"] or "").parent != Path(first["report"]).parent  # a report per run
     assert sorted((store / "reports" / "figures").iterdir()) == figures  # no figure drawn again
@@ -88,11 +94,39 @@ def test_unchanged_archive_does_no_stage_work_and_a_change_reruns_what_follows_i
     assert any(line.startswith("  removed primitive 0: rotation") for line in diff)
     assert [v.version for v in Store(store).versions("open-door--nested-door-b")] == [1, 2]
 
-    regrasped = reprocess_archive(
-        str(archive), store=str(store), params={"min_rotation_rad": 1.0}, grasp={"steps": 200}, workers=1
-    )
+    regrasped_state = reprocess_archive(
+        str(archive), store=str(store), params={"min_rotation_rad": 1.0}, grasp={"steps": 200}, workers=1,
+        return_state=True,
+    )  # fmt: skip
     assert runs(calls)[:4] == [3, 6, 6, 9]  # segment and fit cached: the grasp and what follows re-ran
-    assert regrasped["counts"]["failed"] == 0
+    assert summary_of(regrasped_state)["counts"]["failed"] == 0
+    states = stage_states(regrasped_state)  # the graph shows it: segment and fit Cached, grasp Completed
+    assert states["segment"] == states["fit"] == Counter({"Cached": 3})
+    assert states["grasp"] == Counter({"Completed": 3})
+
+
+def stage_states(state: State[Any]) -> dict[str, Counter[str]]:
+    """Per stage task (the report left out): the final state names of its task runs in the archive's sub-flow
+    run, read from the server once the task run events have arrived."""
+    from prefect.client.orchestration import get_client
+    from prefect.client.schemas.filters import FlowRunFilter, FlowRunFilterId, FlowRunFilterParentFlowRunId
+
+    parent = state.state_details.flow_run_id
+    with get_client(sync_client=True) as client:
+        (sub,) = client.read_flow_runs(
+            flow_run_filter=FlowRunFilter(parent_flow_run_id=FlowRunFilterParentFlowRunId(any_=[parent]))
+        )
+        for _ in range(60):  # task run states reach the server as events, a moment after the flow returns
+            tasks = client.read_task_runs(flow_run_filter=FlowRunFilter(id=FlowRunFilterId(any_=[sub.id])))
+            if all(t.state is not None and t.state.is_final() for t in tasks):
+                break
+            time.sleep(0.5)
+    out: dict[str, Counter[str]] = {}
+    for t in tasks:
+        stage = t.name.rsplit("-", 1)[0]
+        if stage != "report" and t.state is not None:
+            out.setdefault(stage, Counter())[t.state.name] += 1
+    return out
 
 
 def test_process_recording_names_by_meta_and_leaves_artifacts(prefect_harness: None, tmp_path: Path) -> None:
@@ -140,7 +174,7 @@ def test_an_unknown_parameter_fails_every_recording_and_the_run(
 def test_cache_survives_a_new_process_and_prefect_home(prefect_harness: None, archive: Path, tmp_path: Path) -> None:
     store = tmp_path / "store"
     reprocess_archive(str(archive), store=str(store), report=False)
-    before = {p.name: p.stat().st_mtime_ns for p in results_dir(store).iterdir()}
+    before = {p.name: p.stat().st_mtime_ns for p in results_dir(store).iterdir() if p.name != MEMO_FILENAME}
     env = {k: v for k, v in os.environ.items() if not k.startswith("PREFECT_")}
     env["PREFECT_HOME"] = str(tmp_path / "another-prefect-home")
     cmd = [sys.executable, "-m", "flows.cli", "archive", str(archive), "--store", str(store), "--json", "--no-report"]
@@ -148,5 +182,5 @@ def test_cache_survives_a_new_process_and_prefect_home(prefect_harness: None, ar
     assert out.returncode == 0, out.stderr[-2000:]
     summary = json.loads(out.stdout)
     assert summary["counts"]["unchanged"] == 3, summary
-    after = {p.name: p.stat().st_mtime_ns for p in results_dir(store).iterdir()}
+    after = {p.name: p.stat().st_mtime_ns for p in results_dir(store).iterdir() if p.name != MEMO_FILENAME}
     assert after == before  # no stage ran: no result record was written or rewritten

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import errno
+import json
 import sqlite3
 from pathlib import Path
 
@@ -127,3 +128,7 @@ def test_pbd_demo_runs_the_four_paper_tasks_and_each_succeeds_in_simulation(
         "slide-sliding-door",
         "unscrew-bottle",
     ]
+    for name in sorted(p.name for p in (store / "descriptors").iterdir()):  # by name alone: the instance it came from
+        capsys.readouterr()
+        assert main(["simulate", f"{name}@latest", "--store", str(store), "--json"]) == 0, name
+        assert json.loads(capsys.readouterr().out)["success"] is True, name

@@ -70,3 +70,41 @@ def test_transfer_to_a_synth_recording_simulates_in_the_instance_it_names(
     assert entry["simulation_success"] is True
     carried = store.load("unscrew-4-to-bottle@v1")
     assert (store.root / "simulations" / f"{carried.id[:16]}-bottle-s1.npz").is_file()  # instance 1's trace
+
+
+def _stored_door(store: Store) -> None:
+    """``open-door@v1``: a hinge on the door model of ``_door_model``, stored with its model."""
+    model = _door_model(np.random.default_rng(0))
+    sha, path = store.put_model(model)
+    chain = (Primitive("rotation", tuple(HINGE), (0.0, 0.0, 1.0), 1.2, 0.5, 2.5),)
+    store.put_descriptor(Descriptor("open-door", "open", ObjectRef("door", sha, len(model), str(path)), None, chain))
+
+
+def test_transfer_flow_takes_the_cli_options(prefect_harness: None, tmp_path: Path) -> None:
+    """``accept_ambiguous`` and ``scale_range`` as ``pbd transfer --accept-ambiguous --scale-range``: a poor
+    registration (a noise cloud) fails the run naming why, and is stored as a best guess when accepted; an
+    impossible range fails the run in one line before any task; a range the target lies outside finds nothing."""
+    store = Store(tmp_path / "store")
+    _stored_door(store)
+    noise = tmp_path / "noise.npy"
+    np.save(noise, np.random.default_rng(4).uniform(-0.3, 0.3, size=(1500, 3)))
+    run = {"store": str(store.root), "report": False, "scale_range": (0.1, 10.0), "return_state": True}
+
+    refused = transfer_descriptor_flow("open-door@v1", str(noise), **run)
+    assert refused.is_failed()
+    assert "refused (accept_ambiguous writes the best guess)" in str(refused.result(raise_on_failure=False))
+    assert store.versions("open-door-to-noise") == []
+
+    accepted = transfer_descriptor_flow("open-door@v1", str(noise), accept_ambiguous=True, **run)
+    assert accepted.is_completed()
+    (entry,) = accepted.result()["entries"]
+    assert entry["descriptor"] == "open-door-to-noise@v1"
+    assert store.load("open-door-to-noise@v1").extra_provenance["transfer"]["refused"] is True
+
+    bad = transfer_descriptor_flow("open-door@v1", str(noise), **{**run, "scale_range": (2.0, 1.0)})
+    assert bad.is_failed() and "--scale-range 2 1: need 0 < LO < HI" in str(bad.result(raise_on_failure=False))
+    door = tmp_path / "door.npy"
+    np.save(door, _door_model(np.random.default_rng(1)))
+    outside = transfer_descriptor_flow("open-door@v1", str(door), **{**run, "scale_range": (3.0, 4.0)})
+    assert outside.is_failed()
+    assert "no alignment of the models at a scale within 3..4" in str(outside.result(raise_on_failure=False))
