@@ -12,7 +12,7 @@ minimising the distance of the points to the closed surface, and kept only when 
 
 A fit describes the seen part: a face or cap the points do not reach is placed where the seen faces end.
 
-Time (CPU, ``time.process_time``, 2026-12-01 on the shared 2-core machine): 15-19 ms per ``fit_primitive`` on 3000
+Time (CPU, ``time.process_time``, on a shared 2-core machine): 15-19 ms per ``fit_primitive`` on 3000
 raw noisy points of a 30 x 80 x 120 mm box or an r 15 mm, 160 mm cylinder, 13-16 ms on their 1100-1600 4 mm voxels,
 the same with
 ``OPENBLAS_NUM_THREADS=1``: OpenBLAS threads spin on a loaded machine (a 400 x 400 normal product and the trust
