@@ -60,61 +60,63 @@ def _differences(points: Points, lag: int) -> FloatArray:
     return out
 
 
-def _robust_var(d: FloatArray) -> FloatArray:
-    """Per-column variance (m^2) from the median absolute deviation."""
+def robust_variance(d: FloatArray) -> FloatArray:
+    """Per-column variance of ``d`` (its units squared) from the median absolute deviation."""
     mad = np.median(np.abs(d - np.median(d, axis=0)), axis=0)
     out: FloatArray = (MAD_TO_SIGMA * mad) ** 2
     return out
 
 
-def _correlation_gain(points: Points, lag: int, lag_s: float) -> float:
+def _correlation_gain(points: Points, lag: int, lag_s: float, near: FloatArray) -> float:
     """The fourth difference's variance gain over this track's noise: 70 for white noise, less when the noise is
-    correlated (AR(1) correlation at the lag fitted to the variance ratio between lags 2 L and L)."""
+    correlated (AR(1) correlation at the lag fitted to the variance ratio between lags 2 L and L; ``near`` are the
+    differences at L)."""
     if len(points) < 2 * lag * (len(DIFFERENCE) - 1) + 3:
         return 70.0
-    near = float(_robust_var(_differences(points, lag)).sum())
-    far = float(_robust_var(_differences(points, 2 * lag)).sum())
-    if near <= 0.0 or far <= near:
+    var_near = float(robust_variance(near).sum())
+    var_far = float(robust_variance(_differences(points, 2 * lag)).sum())
+    if var_near <= 0.0 or var_far <= var_near:
         return 70.0
     rs = np.linspace(0.0, np.exp(-lag_s / MAX_CORRELATION_S), 256)
     ratio = _gain(rs**2) / _gain(rs)
-    r = float(rs[min(int(np.searchsorted(ratio, far / near)), len(rs) - 1)])
+    r = float(rs[min(int(np.searchsorted(ratio, var_far / var_near)), len(rs) - 1)])
     return float(_gain(r))
 
 
-def noise_covariance(points: Points, t_s: FloatArray | None = None) -> FloatArray:
-    """(3, 3) covariance (m^2, world axes) of a track's noise, anisotropic where it is (a camera's depth).
+def noise_estimate(points: Points, t_s: FloatArray | None = None) -> tuple[float, FloatArray]:
+    """Per-axis noise standard deviation (m) and (3, 3) noise covariance (m^2, world axes) of an (n, 3) track.
 
-    The fourth differences over ``NOISE_LAG_S`` are turned to the principal axes of their central 90 % and scaled
-    per axis by the median absolute deviation, which motion and outliers do not move, over the correlation gain;
-    isotropic below ``MIN_COVARIANCE_ROWS``. Zero for fewer than 5 samples. (scikit-learn's MinCovDet estimates
-    the same robustly but costs far more per marker: ``bench/noise_estimate.py``.)
+    For white noise of standard deviation s the fourth difference over a lag L has standard deviation
+    s * sqrt(70); smooth motion adds only its fourth derivative * (L dt)^4, which the median ignores. The lag L
+    spans ``NOISE_LAG_S`` when the times ``t_s`` are given (one sample otherwise). The differences are turned to
+    the principal axes of their central 90 % and scaled per axis by the median absolute deviation, which motion
+    and outliers do not move, over the correlation gain; the covariance stays isotropic below
+    ``MIN_COVARIANCE_ROWS`` (anisotropic where the sensor is: a camera's depth). Zero for fewer than 5 samples.
+    (scikit-learn's MinCovDet estimates the same robustly but costs far more per marker:
+    ``bench/noise_estimate.py``.)
     """
     if len(points) < len(DIFFERENCE):
-        return np.zeros((3, 3))
+        return 0.0, np.zeros((3, 3))
     lag, lag_s = _lag(len(points), t_s)
     d = _differences(points, lag)
+    gain = _correlation_gain(points, lag, lag_s, d)
+    sigma = float(np.sqrt(float(np.mean(robust_variance(d))) / gain))
     if len(d) < MIN_COVARIANCE_ROWS:
-        return np.eye(3) * noise_sigma(points, t_s) ** 2
+        return sigma, np.eye(3) * sigma**2
     d = d - np.median(d, axis=0)
     norms = np.linalg.norm(d, axis=1)
     core = d[norms <= np.percentile(norms, 90.0)]
     _, axes = np.linalg.eigh(core.T @ core if len(core) >= 3 else d.T @ d)
-    var = _robust_var(d @ axes) / _correlation_gain(points, lag, lag_s)
-    out: FloatArray = (axes * var) @ axes.T
-    return out
+    var = robust_variance(d @ axes) / gain
+    cov: FloatArray = (axes * var) @ axes.T
+    return sigma, cov
+
+
+def noise_covariance(points: Points, t_s: FloatArray | None = None) -> FloatArray:
+    """(3, 3) noise covariance (m^2, world axes) of a track (``noise_estimate``)."""
+    return noise_estimate(points, t_s)[1]
 
 
 def noise_sigma(points: Points, t_s: FloatArray | None = None) -> float:
-    """Per-axis noise standard deviation (metres) of an (n, 3) track from its fourth differences.
-
-    For white noise of standard deviation s the fourth difference over a lag L has standard deviation
-    s * sqrt(70); smooth motion adds only its fourth derivative * (L dt)^4, which the median ignores. The lag L
-    spans ``NOISE_LAG_S`` when the times ``t_s`` are given (one sample otherwise). Returns 0.0 for fewer than 5
-    samples.
-    """
-    if len(points) < len(DIFFERENCE):
-        return 0.0
-    lag, lag_s = _lag(len(points), t_s)
-    var = float(np.mean(_robust_var(_differences(points, lag))))
-    return float(np.sqrt(var / _correlation_gain(points, lag, lag_s)))
+    """Per-axis noise standard deviation (m) of an (n, 3) track (``noise_estimate``); 0.0 under 5 samples."""
+    return noise_estimate(points, t_s)[0]

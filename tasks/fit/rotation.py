@@ -10,13 +10,13 @@ uncertainty comes from the Gauss-Newton covariance.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
-from scipy.optimize import least_squares
+from scipy.optimize import OptimizeResult, least_squares
 
 from tasks.arrays import FloatArray, Points, Vector3
 from tasks.fit.geometry import nearest_on_axis, net_change, perpendicular_basis, unit
+from tasks.fit.noise import MAD_TO_SIGMA
 
 MAX_FIT_SAMPLES = 600
 """Samples per marker used by the geometric refinement (evenly thinned beyond this; the fit barely moves)."""
@@ -29,8 +29,6 @@ LOSS_SCALE_SIGMAS = 3.0
 """Soft-L1 loss scale in residual sigmas: residuals within it count as in least squares, beyond it as outliers.
 When the radial residuals' robust spread exceeds the sensor noise (a handle that slips, a door that sags), the scale
 follows the spread, so model misfit is averaged like noise instead of trimmed (which biases the radius)."""
-MAD_TO_SIGMA = 1.4826
-"""Median absolute residual to the standard deviation of a normal distribution."""
 
 
 @dataclass(frozen=True)
@@ -169,7 +167,7 @@ def _refine(
             parts.append(h - x[k + m + i])
         return np.concatenate(parts)
 
-    def solve(x_start: FloatArray, scale_m: float) -> Any:
+    def solve(x_start: FloatArray, scale_m: float) -> OptimizeResult:
         return least_squares(
             residuals,
             x_start,

@@ -80,9 +80,10 @@ def model_costs(
     )
 
 
-def choose_bic(costs: FloatArray, angle_rad: float, params: SelectParams) -> Kind:
-    """The model of least cost from a (4,) cost row; a rotation sweeping too little counts as a translation."""
-    kind = KINDS[int(np.argmin(costs))]
+def choose_bic(costs: FloatArray, angle_rad: float, params: SelectParams, force: Kind | None = None) -> Kind:
+    """The model of least cost from a (4,) cost row (or ``force``); a rotation sweeping too little counts as a
+    translation, forced or not: an arc too short to tell from a line is a line."""
+    kind = force or KINDS[int(np.argmin(costs))]
     if kind == "rotation" and angle_rad < params.min_rotation_rad:
         return "translation"
     return kind

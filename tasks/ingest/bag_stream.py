@@ -209,14 +209,24 @@ def _walk_chunk(buf: bytes, content: BagContent) -> int:
     return pos
 
 
-def _record(src: FileSource, pos: int) -> tuple[dict[bytes, bytes], int, int] | None:
-    """(header fields, data start, data end) of the top-level record at ``pos``; None when it is cut off."""
+def _header_end(src: FileSource, pos: int) -> tuple[int, int] | None:
+    """(header length, header end) of the top-level record at ``pos``; None when its header or the data length
+    after it is cut off."""
     if pos + 4 > src.size:
         return None
     (hlen,) = _U32.unpack(src.read(pos, 4))
     hend = pos + 4 + hlen
     if hend + 4 > src.size:
         return None
+    return hlen, hend
+
+
+def _record(src: FileSource, pos: int) -> tuple[dict[bytes, bytes], int, int] | None:
+    """(header fields, data start, data end) of the top-level record at ``pos``; None when it is cut off."""
+    got = _header_end(src, pos)
+    if got is None:
+        return None
+    hlen, hend = got
     (dlen,) = _U32.unpack(src.read(hend, 4))
     if hend + 4 + dlen > src.size:
         return None
@@ -386,12 +396,10 @@ def _cut_chunk(src: FileSource, pos: int, content: BagContent) -> tuple[int, int
     complete messages at the front of an uncompressed one (compressed data cannot be cut and decoded).
     Returns (the uncompressed size its header announces, the bytes of it the kept messages cover); None when
     it is not a chunk or its header is cut."""
-    if pos + 4 > src.size:
+    got = _header_end(src, pos)
+    if got is None:
         return None
-    (hlen,) = _U32.unpack(src.read(pos, 4))
-    hend = pos + 4 + hlen
-    if hend + 4 > src.size:
-        return None
+    hlen, hend = got
     hdr = _fields(src.read(pos + 4, hlen), 0, hlen)
     if hdr.get(b"op") != bytes([OP_CHUNK]) or b"size" not in hdr:
         return None

@@ -21,6 +21,7 @@ from tasks.arrays import FloatArray, Points
 from tasks.errors import bounded
 from tasks.fit.geometry import perpendicular_basis, unit
 from tasks.fit.moments import span_residuals
+from tasks.fit.noise import MAD_TO_SIGMA
 from tasks.fit.rigid import PartMotion, ScrewAxis, part_motion, rss_about_axis, screw_axis
 from tasks.fit.rotation import RotationFit, angles_about, fit_rotation
 from tasks.fit.select import KINDS, Kind, SelectParams, choose_bic, choose_eigen, model_costs
@@ -146,9 +147,7 @@ def fit_span(
     angle = swept_angle(pts, rf)
     if motion is not None:
         costs += evidence * orientation_costs(motion, rf.dir, sigma, params.undefined_nats)
-    kind = choose_bic(costs, angle, sel) if force is None else force
-    if kind == "rotation" and angle < sel.min_rotation_rad:
-        kind = "translation"  # a forced rotation too: an arc too short to tell from a line is a line
+    kind = choose_bic(costs, angle, sel, force)
     scores: dict[str, float] = {str(k): float(c) for k, c in zip(KINDS, costs, strict=True)}
     return SegmentFit(kind, t0, t1, names, still, rf, tf, scores, tf.eigenvalues, _extent(kind, rf, tf))
 
@@ -346,7 +345,7 @@ def _rest_orientation(times: FloatArray, quats: FloatArray, window: tuple[float,
     for _ in range(3):  # drop the slow start or stop of the motion left in the rest window
         dist = (rots * mean.inv()).magnitude()
         med = float(np.median(dist))
-        near = dist <= med + 3.0 * 1.4826 * float(np.median(np.abs(dist - med))) + 1e-9
+        near = dist <= med + 3.0 * MAD_TO_SIGMA * float(np.median(np.abs(dist - med))) + 1e-9
         if near.sum() < MIN_SAMPLES:
             break
         mean = rots[near].mean()

@@ -11,6 +11,7 @@ from scipy.spatial.transform import Rotation
 
 from tasks.arrays import FloatArray, Points, Quats, StampsNs
 from tasks.errors import FitError
+from tasks.fit.noise import robust_variance
 from tasks.recording.load import PoseTrack, RecordingData
 from tasks.segment.tracks import Track, make_track
 
@@ -117,8 +118,7 @@ def isolated_jumps(t_s: FloatArray, pts: Points) -> npt.NDArray[np.bool_]:
         return out
     w = dt[:-1] / (dt[:-1] + dt[1:])
     offset = pts[1:-1] - ((1.0 - w)[:, None] * pts[:-2] + w[:, None] * pts[2:])
-    mad = np.median(np.abs(offset - np.median(offset, axis=0)), axis=0)
-    scale = float(np.sqrt(np.mean((1.4826 * mad) ** 2)))
+    scale = float(np.sqrt(np.mean(robust_variance(offset))))
     if scale <= 0.0:
         return out
     size = np.linalg.norm(offset, axis=1)

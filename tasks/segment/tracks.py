@@ -9,7 +9,7 @@ import numpy as np
 
 from tasks.arrays import FloatArray, Points
 from tasks.fit.moments import PrefixMoments, prefix_moments
-from tasks.fit.noise import noise_covariance, noise_sigma
+from tasks.fit.noise import noise_estimate
 from tasks.fit.select import SIGMA_MIN_M
 
 ANISOTROPY_FLOOR = 0.01
@@ -61,9 +61,8 @@ def sample_weights(t_s: FloatArray) -> FloatArray:
 
 def make_track(name: str, t_s: FloatArray, points: Points, sigma_floor_m: float) -> Track:
     """Build a ``Track`` from finite samples sorted by time; sigma = max(high-frequency noise, floor)."""
-    hf = noise_sigma(points, t_s)
+    hf, cov = noise_estimate(points, t_s)
     weights = sample_weights(t_s)
-    cov = noise_covariance(points, t_s)
     return Track(name, t_s, points, prefix_moments(points, weights), max(hf, sigma_floor_m), hf, weights, cov)
 
 
