@@ -25,6 +25,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from tests.transfer.shapes import Part, box, cylinder_side, sample_parts
+
 FAMILIES = ("cabinet", "microwave", "drawer", "lever", "bottle")
 SOURCE_NOISE_M = 5e-4
 """The demonstrated object's model: a careful full scan."""
@@ -32,14 +34,6 @@ POINTS = {"cabinet": 12_000, "microwave": 12_000, "drawer": 12_000, "lever": 20_
 """Surface samples of a full model per family (a door leaf is 3 m^2 of which the lever is 0.3 %)."""
 GRAZING_COS = math.cos(math.radians(80.0))
 """A surface seen at more than 80 degrees from every view is not in the scan."""
-
-
-@dataclass(frozen=True)
-class Patch:
-    """A surface patch: its area (m^2) and a sampler n, rng -> (points (n, 3), unit outward normals (n, 3))."""
-
-    area: float
-    sample: object
 
 
 @dataclass(frozen=True)
@@ -78,31 +72,7 @@ class TransferPair:
     noise_m: float
 
 
-def _box(size: np.ndarray, centre: np.ndarray) -> list[Patch]:
-    """The six faces of an axis-aligned box."""
-    half = np.asarray(size, dtype=np.float64) / 2.0
-    c = np.asarray(centre, dtype=np.float64)
-    out: list[Patch] = []
-    for axis in range(3):
-        u, v = [a for a in range(3) if a != axis]
-        for sign in (-1.0, 1.0):
-
-            def sample(
-                n: int, rng: np.random.Generator, *, axis: int = axis, u: int = u, v: int = v, sign: float = sign
-            ) -> tuple[np.ndarray, np.ndarray]:
-                pts = np.empty((n, 3))
-                pts[:, axis] = c[axis] + sign * half[axis]
-                pts[:, u] = c[u] + rng.uniform(-half[u], half[u], n)
-                pts[:, v] = c[v] + rng.uniform(-half[v], half[v], n)
-                nrm = np.zeros((n, 3))
-                nrm[:, axis] = sign
-                return pts, nrm
-
-            out.append(Patch(4.0 * half[u] * half[v], sample))
-    return out
-
-
-def _cylinder(radius: float, length: float, centre: np.ndarray, axis: int) -> list[Patch]:
+def _cylinder(radius: float, length: float, centre: np.ndarray, axis: int) -> list[Part]:
     """A closed cylinder about coordinate ``axis`` (side and both caps)."""
     c = np.asarray(centre, dtype=np.float64)
     u, v = [a for a in range(3) if a != axis]
@@ -115,7 +85,7 @@ def _cylinder(radius: float, length: float, centre: np.ndarray, axis: int) -> li
         pts[:, axis] += rng.uniform(-length / 2, length / 2, n)
         return pts, nrm
 
-    out = [Patch(2.0 * np.pi * radius * length, side)]
+    out = [Part(2.0 * np.pi * radius * length, side)]
     for sign in (-1.0, 1.0):
 
         def cap(n: int, rng: np.random.Generator, sign: float = sign) -> tuple[np.ndarray, np.ndarray]:
@@ -129,78 +99,48 @@ def _cylinder(radius: float, length: float, centre: np.ndarray, axis: int) -> li
             nrm[:, axis] = sign
             return pts, nrm
 
-        out.append(Patch(np.pi * radius**2, cap))
+        out.append(Part(np.pi * radius**2, cap))
     return out
 
 
-def _frustum(r0: float, r1: float, z0: float, z1: float) -> Patch:
-    """The side of a frustum about z from radius ``r0`` at ``z0`` to ``r1`` at ``z1``."""
-    slant = math.hypot(z1 - z0, r1 - r0)
-
-    def sample(n: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-        t = rng.random(n)
-        if abs(r1 - r0) > 1e-9:  # area-uniform: density grows with the radius
-            t = (np.sqrt(r0**2 + t * (r1**2 - r0**2)) - r0) / (r1 - r0)
-        r = r0 + t * (r1 - r0)
-        phi = rng.uniform(0.0, 2.0 * np.pi, n)
-        pts = np.column_stack([r * np.cos(phi), r * np.sin(phi), z0 + t * (z1 - z0)])
-        nr, nz = (z1 - z0) / slant, (r0 - r1) / slant
-        return pts, np.column_stack([nr * np.cos(phi), nr * np.sin(phi), np.full(n, nz)])
-
-    return Patch(math.pi * (r0 + r1) * slant, sample)
-
-
-def _sample(patches: list[Patch], n: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-    """Area-weighted samples over ``patches``."""
-    areas = np.array([p.area for p in patches])
-    counts = rng.multinomial(n, areas / areas.sum())
-    pts, nrm = [], []
-    for patch, k in zip(patches, counts, strict=True):
-        if k:
-            p, q = patch.sample(int(k), rng)  # type: ignore[operator]
-            pts.append(p)
-            nrm.append(q)
-    return np.vstack(pts), np.vstack(nrm)
-
-
-def _bar_handle(centre: np.ndarray, length: float, along: int, standoff: float) -> list[Patch]:
+def _bar_handle(centre: np.ndarray, length: float, along: int, standoff: float) -> list[Part]:
     """A bar of square section 16 mm along coordinate ``along``, ``standoff`` in front (-y) of its mount face,
     on two posts; ``centre`` is the bar's centre."""
     size = np.full(3, 0.016)
     size[along] = length
-    patches = _box(size, centre)
+    patches = box(size, centre)
     for sign in (-1.0, 1.0):
         post = centre.copy()
         post[along] += sign * (length / 2 - 0.015)
         post[1] += standoff / 2
-        patches += _box(np.array([0.012, standoff, 0.012]), post)
+        patches += box(np.array([0.012, standoff, 0.012]), post)
     return patches
 
 
-def cabinet(d: np.ndarray) -> tuple[list[Patch], np.ndarray, np.ndarray, str, np.ndarray]:
+def cabinet(d: np.ndarray) -> tuple[list[Part], np.ndarray, np.ndarray, str, np.ndarray]:
     """Patches, axis point, axis direction, kind and grip of a cabinet of size ``d`` = (w, depth, h)."""
     w, depth, h = d
     door_t = 0.018
     front = -depth / 2 - door_t
-    patches = _box(d, np.array([0.0, 0.0, h / 2]))
-    patches += _box(np.array([w - 0.006, door_t, h - 0.006]), np.array([0.0, -depth / 2 - door_t / 2, h / 2]))
+    patches = box(d, np.array([0.0, 0.0, h / 2]))
+    patches += box(np.array([w - 0.006, door_t, h - 0.006]), np.array([0.0, -depth / 2 - door_t / 2, h / 2]))
     grip = np.array([w / 2 - 0.05, front - 0.035, 0.55 * h])
     patches += _bar_handle(grip, 0.4 * h, 2, 0.035)
     return patches, np.array([-w / 2, front, h / 2]), np.array([0.0, 0.0, -1.0]), "rotation", grip
 
 
-def microwave(d: np.ndarray) -> tuple[list[Patch], np.ndarray, np.ndarray, str, np.ndarray]:
+def microwave(d: np.ndarray) -> tuple[list[Part], np.ndarray, np.ndarray, str, np.ndarray]:
     """A microwave-like box of size ``d``: door on the left 70 % of the front, control panel beside it."""
     w, depth, h = d
     door_w, gap = 0.7 * w, 0.004
     door_t, panel_t = 0.022, 0.012
     front = -depth / 2 - door_t
-    patches = _box(d, np.array([0.0, 0.0, h / 2]))
-    patches += _box(
+    patches = box(d, np.array([0.0, 0.0, h / 2]))
+    patches += box(
         np.array([door_w, door_t, h - 0.01]), np.array([-w / 2 + door_w / 2, -depth / 2 - door_t / 2, h / 2])
     )
     panel_w = w - door_w - gap
-    patches += _box(
+    patches += box(
         np.array([panel_w, panel_t, h - 0.01]), np.array([w / 2 - panel_w / 2, -depth / 2 - panel_t / 2, h / 2])
     )
     grip = np.array([-w / 2 + door_w - 0.035, front - 0.03, h / 2])
@@ -208,12 +148,12 @@ def microwave(d: np.ndarray) -> tuple[list[Patch], np.ndarray, np.ndarray, str, 
     return patches, np.array([-w / 2, front, h / 2]), np.array([0.0, 0.0, -1.0]), "rotation", grip
 
 
-def drawer(d: np.ndarray) -> tuple[list[Patch], np.ndarray, np.ndarray, str, np.ndarray]:
+def drawer(d: np.ndarray) -> tuple[list[Part], np.ndarray, np.ndarray, str, np.ndarray]:
     """A chest of size ``d`` with a drawer front on its top third and a horizontal bar handle."""
     w, depth, h = d
     front_t, front_h = 0.02, h / 3
-    patches = _box(d, np.array([0.0, 0.0, h / 2]))
-    patches += _box(
+    patches = box(d, np.array([0.0, 0.0, h / 2]))
+    patches += box(
         np.array([w - 0.006, front_t, front_h - 0.006]), np.array([0.0, -depth / 2 - front_t / 2, h - front_h / 2])
     )
     grip = np.array([0.0, -depth / 2 - front_t - 0.03, h - front_h / 2])
@@ -221,21 +161,21 @@ def drawer(d: np.ndarray) -> tuple[list[Patch], np.ndarray, np.ndarray, str, np.
     return patches, grip, np.array([0.0, -1.0, 0.0]), "translation", grip
 
 
-def lever(d: np.ndarray) -> tuple[list[Patch], np.ndarray, np.ndarray, str, np.ndarray]:
+def lever(d: np.ndarray) -> tuple[list[Part], np.ndarray, np.ndarray, str, np.ndarray]:
     """A door leaf of size ``d`` = (w, thickness, h) with a lever on a rose on each face, 65 mm from the edge."""
     w, t, h = d
-    patches = _box(d, np.array([0.0, 0.0, h / 2]))
+    patches = box(d, np.array([0.0, 0.0, h / 2]))
     spindle = np.array([w / 2 - 0.065, 0.0, 0.47 * h])
     for sign in (-1.0, 1.0):
         face = sign * t / 2
         patches += _cylinder(0.027, 0.01, spindle + np.array([0.0, face + sign * 0.005, 0.0]), 1)
         patches += _cylinder(0.009, 0.05, spindle + np.array([0.0, face + sign * 0.035, 0.0]), 1)
-        patches += _box(np.array([0.13, 0.014, 0.02]), spindle + np.array([-0.055, face + sign * 0.055, 0.0]))
+        patches += box(np.array([0.13, 0.014, 0.02]), spindle + np.array([-0.055, face + sign * 0.055, 0.0]))
     grip = spindle + np.array([-0.07, -t / 2 - 0.055, 0.0])
     return patches, spindle + np.array([0.0, -t / 2, 0.0]), np.array([0.0, -1.0, 0.0]), "rotation", grip
 
 
-def bottle(d: np.ndarray) -> tuple[list[Patch], np.ndarray, np.ndarray, str, np.ndarray]:
+def bottle(d: np.ndarray) -> tuple[list[Part], np.ndarray, np.ndarray, str, np.ndarray]:
     """A bottle: ``d`` = (radius, radius, body height); shoulder, neck and a cap 20 mm tall."""
     r, _, body = d
     neck_r, cap_r = 0.37 * r, 0.45 * r
@@ -243,8 +183,8 @@ def bottle(d: np.ndarray) -> tuple[list[Patch], np.ndarray, np.ndarray, str, np.
     z1, z2 = body + shoulder, body + shoulder + neck
     patches = [
         *_cylinder(r, body, np.array([0.0, 0.0, body / 2]), 2)[:2],  # side and bottom
-        _frustum(r, neck_r, body, z1),
-        _frustum(neck_r, neck_r, z1, z2),
+        cylinder_side(r, body, z1, neck_r),
+        cylinder_side(neck_r, z1, z2),
         *_cylinder(cap_r, cap, np.array([0.0, 0.0, z2 + cap / 2]), 2),
     ]
     return (
@@ -278,7 +218,7 @@ def build(family: str, dims: np.ndarray, stretch: np.ndarray, n: int, rng: np.ra
     """The object of ``family`` with dimensions ``dims`` stretched per axis by ``stretch`` (its whole geometry,
     handle included), ``n`` surface samples."""
     patches, pos, direction, kind, grip = BUILDERS[family](dims)
-    points, normals = _sample(patches, n, rng)
+    points, normals = sample_parts(patches, n, rng)
     points = points * stretch
     normals = normals / stretch
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)
