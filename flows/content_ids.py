@@ -77,15 +77,26 @@ def _remembered(memo: Path) -> dict[str, str]:
     return _LOADED[memo]
 
 
+def _lookup(memo: Path, key: str | None) -> str | None:
+    """The id remembered under state ``key`` in ``memo`` (None without one; an unreadable memo is passed over)."""
+    if key is not None:
+        with _LOCK, contextlib.suppress(sqlite3.Error, OSError):
+            return _remembered(memo).get(key)
+    return None
+
+
+def remembered_id(store_root: str | Path, source: Path) -> str | None:
+    """The content id remembered for ``source`` in its present state, None when there is none (nothing is hashed)."""
+    return _lookup(results_dir(store_root) / MEMO_FILENAME, state_key(source))
+
+
 def content_id(store_root: str | Path, source: Path) -> str:
     """``recording_id_of(source)``, remembered in the store under the file's state (see the module's doc). A memo
     that cannot be read or written (a read-only store, a damaged file) is passed over: the bytes are hashed."""
     memo = results_dir(store_root) / MEMO_FILENAME
     key = state_key(source)
-    if key is not None:
-        with _LOCK, contextlib.suppress(sqlite3.Error, OSError):
-            if (known := _remembered(memo).get(key)) is not None:
-                return known
+    if (known := _lookup(memo, key)) is not None:
+        return known
     recording_id = recording_id_of(source)
     if key is not None:
         with _LOCK, contextlib.suppress(sqlite3.Error, OSError):

@@ -16,7 +16,7 @@ from prefect import task
 from prefect.context import TaskRunContext
 
 from flows.caching import RETRIED, stage_key
-from flows.content_ids import content_id
+from flows.content_ids import content_id, remembered_id
 from tasks.errors import PbdError
 from tasks.ingest.api import ingest_recording
 from tasks.report.refs import RecordingRef
@@ -65,5 +65,6 @@ def ingest_task(
         topics=Path(topics) if topics else None,
         recover=recover,
         object_model=Path(object_model) if object_model else None,
+        known_id=remembered_id(store_root, Path(source)),  # remembered when the cache key was made
     )
     return RecordingRef(result.recording_id, source, result.lost_messages, tuple(result.warnings))

@@ -208,6 +208,7 @@ def ingest_recording(
     topics: Path | None = None,
     recover: bool = False,
     object_model: Path | None = None,
+    known_id: str | None = None,
 ) -> IngestResult:
     """Ingest the recording at ``source`` into ``store``; a no-op (``created=False``) if it is already there.
 
@@ -215,7 +216,8 @@ def ingest_recording(
     another map (or none) is another entry, and an entry is never rewritten. Only the topics some role can use
     are decoded; the others are counted (and skipped unread where the container allows). The content id is
     hashed on a second thread while the raw messages are read (``content_id_beside``), so a recording already
-    in the store is read but not decoded or written.
+    in the store is read but not decoded or written. ``known_id``: the content id when the caller already has it
+    (the flows remember ids by file state), so the bytes are not hashed again.
     Raises ``RecordingError`` (bad or unreadable recording, naming the file and topic), ``TopicMapError``
     (bad ``topics`` map). With ``recover``, a truncated or damaged MCAP, ROS 1 bag or rosbag2 keeps its intact
     messages before the damage and the loss is reported in ``lost_messages`` (exact where rosbag2 metadata counts
@@ -225,7 +227,7 @@ def ingest_recording(
     source = Path(source)
     tmap = rl.parse_topic_map(Path(topics)) if topics is not None else None
     check_source(source)
-    with content_id_beside(source) as pending:
+    with content_id_beside(source, known_id) as pending:
         raw = read_recording(source, recover=recover, want=rl.wanted(tmap))
         content_id = pending.result()
     rec_id = recording_key(content_id, tmap)

@@ -77,14 +77,17 @@ def recording_id_of(source: Path, stop: threading.Event | None = None) -> str:
 
 
 class PendingId:
-    """The content id of ``source`` being hashed on a second thread (started at construction)."""
+    """The content id of ``source`` being hashed on a second thread (started at construction), or ``known``
+    when the caller already has it (no thread, nothing read)."""
 
-    def __init__(self, source: Path) -> None:
+    def __init__(self, source: Path, known: str | None = None) -> None:
         self._stop = threading.Event()
-        self._id = ""
+        self._id = known or ""
         self._error: Exception | None = None
-        self._thread = threading.Thread(target=self._run, args=(Path(source),), name="pbd-content-id", daemon=True)
-        self._thread.start()
+        self._thread: threading.Thread | None = None
+        if known is None:
+            self._thread = threading.Thread(target=self._run, args=(Path(source),), name="pbd-content-id", daemon=True)
+            self._thread.start()
 
     def _run(self, source: Path) -> None:
         try:
@@ -94,7 +97,8 @@ class PendingId:
 
     def result(self) -> str:
         """Wait for the id; raises what the hashing raised (a ``RecordingError`` for an unreadable file)."""
-        self._thread.join()
+        if self._thread is not None:
+            self._thread.join()
         if self._error is not None:
             raise self._error
         return self._id
@@ -102,14 +106,16 @@ class PendingId:
     def abandon(self) -> None:
         """Stop hashing at the next block and wait for the thread (the file is closed when this returns)."""
         self._stop.set()
-        self._thread.join()
+        if self._thread is not None:
+            self._thread.join()
 
 
 @contextmanager
-def content_id_beside(source: Path) -> Iterator[PendingId]:
-    """Hash ``source`` on a second thread for the duration of the block; ``.result()`` gives the id. Leaving the
-    block early (an exception) abandons the hashing and waits for the thread, so no file stays open."""
-    pending = PendingId(source)
+def content_id_beside(source: Path, known: str | None = None) -> Iterator[PendingId]:
+    """Hash ``source`` on a second thread for the duration of the block; ``.result()`` gives the id (``known``,
+    unhashed, when given). Leaving the block early (an exception) abandons the hashing and waits for the thread,
+    so no file stays open."""
+    pending = PendingId(source, known)
     try:
         yield pending
     finally:

@@ -68,3 +68,14 @@ def test_a_failed_read_abandons_the_hashing_and_leaves_no_thread(tmp_path: Path)
 def test_a_hashing_error_reaches_the_caller(tmp_path: Path) -> None:
     with pytest.raises(RecordingError, match="no such file"), content_id_beside(tmp_path / "gone.mcap") as pending:
         pending.result()
+
+
+def test_an_id_the_caller_already_has_is_used_without_hashing(tmp_path: Path) -> None:
+    """The flows remember content ids by file state and hand them to the ingest: the bytes are not hashed again,
+    so the entry is stored under the id given (here one that is not the bytes' SHA-256, to show it)."""
+    rec = _recording(tmp_path / "r.mcap")
+    given = "0123456789abcdef"
+    assert recording_id_of(rec) != given
+    result = ingest_recording(rec, Store(tmp_path / "store"), known_id=given)
+    assert result.recording_id == given
+    assert Store(tmp_path / "store").has_recording(given)
