@@ -35,7 +35,8 @@ import resource, sys, time
 t0 = time.perf_counter()
 from flows.cli import main
 code = main(sys.argv[1:])
-sys.stderr.write(f"BENCH {time.perf_counter() - t0:.3f} {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss}\\n")
+use = resource.getrusage(resource.RUSAGE_SELF)
+sys.stderr.write(f"BENCH {time.perf_counter() - t0:.3f} {use.ru_utime + use.ru_stime:.3f} {use.ru_maxrss}\\n")
 sys.exit(code)
 """
 
@@ -74,8 +75,8 @@ def write(path: Path, duration_s: float, rng: np.random.Generator) -> list[float
     return swings
 
 
-def learn(path: Path, store: Path) -> tuple[float, float, float]:
-    """Run ``pbd learn`` in a fresh process: (wall s, in-process s, peak RSS MB)."""
+def learn(path: Path, store: Path) -> tuple[float, float, float, float]:
+    """Run ``pbd learn`` in a fresh process: (wall s, in-process s, CPU s, peak RSS MB)."""
     t0 = time.perf_counter()
     proc = subprocess.run(
         [sys.executable, "-c", RUNNER, "learn", str(path), "--store", str(store), "--name", path.stem],
@@ -88,8 +89,8 @@ def learn(path: Path, store: Path) -> tuple[float, float, float]:
     if proc.returncode != 0:
         sys.exit(f"pbd learn failed: {proc.stderr.strip()}")
     line = next(x for x in proc.stderr.splitlines() if x.startswith("BENCH "))
-    _, inner, rss_kb = line.split()
-    return wall, float(inner), float(rss_kb) / 1024.0
+    _, inner, cpu, rss_kb = line.split()
+    return wall, float(inner), float(cpu), float(rss_kb) / 1024.0
 
 
 def check(store: Store, name: str, swings: list[float]) -> tuple[int, int, float]:
@@ -118,18 +119,21 @@ def main() -> None:
         for label, duration in (("short", 10.0), ("long", long_s)):
             path = folder / f"door-{label}.mcap"
             swings = write(path, duration, rng)
-            wall, inner, rss = learn(path, store.root)
+            wall, inner, cpu, rss = learn(path, store.root)
             found, expected, worst = check(store, path.stem, swings)
             n = int(duration * HZ)
-            rows.append((f"{duration:g} s", n, expected, found, worst, wall, inner, rss))
+            rows.append((f"{duration:g} s", n, expected, found, worst, wall, inner, cpu, rss))
     print(f"pbd learn on a door opened and closed repeatedly (3 markers at {HZ:g} Hz, 0.5 mm noise, fresh process)")
     head = f"{'recording':<10} {'samples/marker':>14} {'primitives':>11} {'found':>6} {'worst extent err':>17}"
-    print(head + f" {'wall s':>7} {'in-process s':>13} {'peak RSS MB':>12}")
-    for dur, n, exp, found, worst, wall, inner, rss in rows:
-        print(f"{dur:<10} {n:>14} {exp:>11} {found:>6} {worst:>13.3f} deg {wall:>7.1f} {inner:>13.1f} {rss:>12.0f}")
-    (_, n0, *_, t0, _, m0), (_, n1, *_, t1, _, m1) = rows
+    print(head + f" {'wall s':>7} {'in-process s':>13} {'CPU s':>6} {'peak RSS MB':>12}")
+    for dur, n, exp, found, worst, wall, inner, cpu, rss in rows:
+        print(
+            f"{dur:<10} {n:>14} {exp:>11} {found:>6} {worst:>13.3f} deg {wall:>7.1f} {inner:>13.1f} {cpu:>6.1f}"
+            f" {rss:>12.0f}"
+        )
+    (_, n0, *_, t0, _, _, m0), (_, n1, *_, t1, _, _, m1) = rows
     print(f"growth: {n1 / n0:.0f}x samples -> {t1 / t0:.1f}x time, {m1 / m0:.1f}x memory")
-    print(f"targets: under 60 s and 3 GB (aim 10 s, 1 GB); the dense Table I affinity alone would need "
+    print(f"target: under 15 s and 1 GB; the dense Table I affinity alone would need "
           f"{n1**2 * 8 / 1e9:.1f} GB per marker here")  # fmt: skip
 
 

@@ -3,8 +3,9 @@
 The cost of a time span is, summed over markers, the cost of the best still / line / circle / undefined
 model of that marker's samples in the span (``tasks.fit.select.model_costs``, O(1) per span from prefix
 moments), plus a penalty ``beta`` per segment. PELT (Killick et al. 2012) searches change points on a time
-grid of ``grid_s`` cells with a minimum segment length; each change point is then refined at the full
-sample rate between its neighbours. Every marker shares the change points: a switch in one marker is a
+grid of ``grid_s`` cells with a minimum segment length, scoring spans of at most ``max_span_s``; the cheapest
+subset of the change points found, with spans of any length, is then kept; each change point is finally refined
+at the full sample rate between its neighbours. Every marker shares the change points: a switch in one marker is a
 candidate for all. Segments are contiguous in time and their number is found by the search.
 
 Why not ruptures' ``Pelt``: it asks its cost for one span at a time, while this search scores every candidate of
@@ -15,6 +16,7 @@ times slower (``bench/changepoint_peer.py``).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -36,13 +38,18 @@ FEW_SAMPLE_MODELS = [0, 3]
 @dataclass(frozen=True)
 class ChangepointParams:
     """Search settings: grid cell (s), minimum segment (s), penalty per segment (nats, None = 3 log N per
-    marker, N the effective sample count), per-sample cost of the undefined model (nats), most grid cells."""
+    marker, N the effective sample count), per-sample cost of the undefined model (nats), most grid cells, and
+    the longest span (s) PELT scores directly (longer segments come from the subset pass)."""
 
     grid_s: float = 0.05
     min_segment_s: float = 0.3
     penalty: float | None = None
     undefined_nats: float = 9.0
     max_cells: int = 3000
+    max_span_s: float = 10.0
+    """PELT's pruning keeps every start a single model explains (one circle fits any stretch of a door swung to
+    and fro), so each step would score all earlier cells; bounding the span keeps the search linear in time, and
+    the subset pass after it restores longer segments."""
 
 
 @dataclass(frozen=True)
@@ -99,6 +106,7 @@ def search(tracks: list[Track], params: ChangepointParams) -> Segmentation:
     grid = t_lo + cell * np.arange(n_cells + 1, dtype=np.float64)
     grid[-1] = t_hi
     min_cells = max(1, math.ceil(params.min_segment_s / cell))
+    max_span_cells = max(min_cells, math.ceil(params.max_span_s / cell))
     n_evidence = max(float(tr.weights.sum()) for tr in tracks)
     beta = params.penalty if params.penalty is not None else 3.0 * len(tracks) * math.log(max(n_evidence, 2.0))
     margin = 4.0 * len(tracks) * math.log(max(n_evidence, 2.0))
@@ -141,6 +149,7 @@ def search(tracks: list[Track], params: ChangepointParams) -> Segmentation:
         new = end - min_cells
         if np.isfinite(best[new]):
             cands = np.append(cands, new)
+        cands = cands[cands >= end - max_span_cells]
         if len(cands) == 0:
             continue
         c = cost(cands, end)
@@ -155,9 +164,27 @@ def search(tracks: list[Track], params: ChangepointParams) -> Segmentation:
     while cuts[-1] > 0:
         cuts.append(int(prev[cuts[-1]]))
     cuts.reverse()
+    cuts = _best_subset(cuts, cost, beta)
     bounds = [float(grid[c]) for c in cuts]
     bounds = _refine(tracks, bounds, cell, params)
     return Segmentation(tuple(bounds), float(best[n_cells]))
+
+
+def _best_subset(cuts: list[int], cost: Callable[[IntArray, int], FloatArray], beta: float) -> list[int]:
+    """The cheapest segmentation whose change points are among ``cuts`` (grid cells, first 0, last the end),
+    spans of any length; ``cost(starts, end)`` scores the grid spans [start, end)."""
+    points = np.asarray(cuts, dtype=np.int64)
+    best = np.full(len(points), np.inf)
+    best[0] = -beta
+    prev = np.zeros(len(points), dtype=np.int64)
+    for j in range(1, len(points)):
+        vals = best[:j] + cost(points[:j], int(points[j])) + beta
+        prev[j] = int(np.argmin(vals))
+        best[j] = vals[prev[j]]
+    out = [len(points) - 1]
+    while out[-1] > 0:
+        out.append(int(prev[out[-1]]))
+    return [int(points[i]) for i in reversed(out)]
 
 
 def _refine(tracks: list[Track], bounds: list[float], cell: float, params: ChangepointParams) -> list[float]:

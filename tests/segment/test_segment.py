@@ -57,6 +57,20 @@ def test_one_segment_is_cheaper_than_a_cut_inside_a_still_track() -> None:
     assert whole[0] < halves.sum()
 
 
+def test_segments_longer_than_the_scored_span_come_back_whole() -> None:
+    """A door swung to and fro for 24 s about one hinge is one circle; scoring spans of at most 2 s finds the
+    same change points as scoring every span, the subset pass joining the pieces."""
+    rng = np.random.default_rng(4)
+    t = np.arange(0.0, 24.0, 1.0 / HZ)
+    angle = 0.6 * (1.0 - np.cos(2.0 * np.pi * t / 6.0))
+    pts = np.column_stack([0.4 * np.cos(angle), 0.4 * np.sin(angle), np.zeros_like(t)])
+    track = make_track("/m", t, pts + rng.normal(0.0, 0.0005, pts.shape), 0.002)
+    whole = search([track], ChangepointParams(max_span_s=100.0))
+    capped = search([track], ChangepointParams(max_span_s=2.0))
+    assert len(whole.spans) == 1
+    assert capped.bounds_s == whole.bounds_s
+
+
 def test_spectral_dense_and_sparse_find_the_two_clusters() -> None:
     rng = np.random.default_rng(4)
     for n in (400, 2400):  # dense eigh below 2000 samples, sparse eigsh above
