@@ -205,6 +205,8 @@ def _matched(
     turned = carried_normals(current, source_normals)
     agree = np.abs(np.einsum("ij,ij->i", turned[ok], target_normals[idx[ok]]))
     ok[ok] &= agree >= NORMAL_COS
+    if not ok.any():
+        return moved, turned, idx, ok
     q = tree.data[idx[ok]]
     _, near = cKDTree(moved).query(q, k=min(NEAREST_K, len(moved)))
     near = near.reshape(len(q), -1)
