@@ -22,6 +22,7 @@ the paper's plain-ICP transfer, the untransferred descriptor on B and the learne
 
     .venv/bin/python bench/transfer.py [--quick] [--pairs N] [--scene-pairs N] [--seed N]
     .venv/bin/python bench/transfer.py --simulate [--pairs N] [--seed N] [--scene NAME]
+    .venv/bin/python bench/transfer.py --families [--pairs N] [--family F] [--dev-only | --held-out-only]
 """
 
 from __future__ import annotations
