@@ -70,6 +70,10 @@ class TransferPair:
     keep: float
     views: int
     noise_m: float
+    rotation: np.ndarray
+    """(3, 3) the novel object's turn from its own frame into the scan's (before the ``shift``)."""
+    shift: np.ndarray
+    """(3,) metres: scan frame = rotation @ (stretch * object frame) + shift."""
 
 
 def _cylinder(radius: float, length: float, centre: np.ndarray, axis: int) -> list[Part]:
@@ -298,4 +302,6 @@ def make_pair(family: str, seed: int) -> TransferPair:
         keep,
         views,
         noise,
+        rot,
+        shift,
     )

@@ -209,6 +209,7 @@ def transfer_descriptor(
                 "residual_rms_m": _finite(fit.spread.rms_m),
                 "neighbourhood_shift_mm": fit.whole_shift_m * 1e3,
                 "neighbourhood_turn_deg": math.degrees(fit.whole_turn_rad),
+                "neighbourhood_pos_std_m": _finite(fit.fit_pos_std_m),
                 "registration_pos_std_m": _finite(unc.registration_pos_std_m),
                 "registration_dir_std_rad": _finite(unc.registration_dir_std_rad),
                 "snapped_mm": snapped * 1e3,

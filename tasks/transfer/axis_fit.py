@@ -6,8 +6,8 @@ rigid point-to-plane fit of that neighbourhood alone, started from the stretched
 only when its normals pin the axis across itself (their scatter across the axis has both eigenvalues at least
 ``MIN_LATERAL``: two faces meeting at a hinge, a lever's sides), and when its fit pairs enough points; else the
 whole model's fit places the axis. Each placement comes with its spread (``stretch.line_spread``), widened to
-cover how far the neighbourhood moved the axis from the whole model's placement (``AGREEMENT_SIGMAS``). Lengths in
-metres.
+cover how far the neighbourhood moved the axis from the whole model's placement when the two fits contradict each
+other (``AGREEMENT_SIGMAS``). Lengths in metres.
 """
 
 from __future__ import annotations
@@ -39,9 +39,10 @@ MIN_LATERAL = 0.05
 """The neighbourhood pins the axis when its normals' scatter across the axis has both eigenvalues at least this
 (one flat face: 0, free to slide; two perpendicular faces in equal parts: 0.5)."""
 AGREEMENT_SIGMAS = 3.0
-"""The neighbourhood's and the whole model's placements of an axis come from the same scan; three of the kept
-one's sigmas must cover how far apart they are. Sigmas from the residuals alone miss what the model of the fit
-leaves out (a face the scan lacks, a wrong pairing), and the disagreement shows it."""
+"""The neighbourhood's and the whole model's placements of an axis are two estimates from the same scan: when
+they lie more than three of their combined sigmas apart they contradict each other (one fit's model leaves out
+something, a face the scan lacks, a wrong pairing), the scan does not say which, and the kept one's sigma is
+widened so that three of it cover the disagreement; within that, the kept fit's own sigma stands."""
 MIN_REGION_PAIRS = 60
 """Fewer matched neighbourhood points than this: the neighbourhood does not place the axis."""
 
@@ -60,6 +61,8 @@ class AxisFit:
     """How far the neighbourhood's fit moved the axis point from the whole model's placement, metres (target)."""
     whole_turn_rad: float = 0.0
     """How far it turned the axis from the whole model's placement, radians."""
+    fit_pos_std_m: float = float("nan")
+    """The neighbourhood fit's own position sigma (``stretch.line_spread``, before any widening), metres."""
 
     def start(self, pos: Vector3, direction: Vector3) -> Similarity:
         """The similarity carrying the line through ``pos`` along unit ``direction`` (source frame) as this fit
@@ -128,12 +131,18 @@ def fit_axis(
     local_pos, local_dir = fitted.carry_line(pos, direction)
     shift = point_line_distance(local_pos, whole_pos, whole_dir)
     turn = math.radians(angle_between_deg(local_dir, whole_dir))
-    spread = replace(spread, pos_std_m=max(spread.pos_std_m, shift / AGREEMENT_SIGMAS))
+    own = spread.pos_std_m
+    if shift > AGREEMENT_SIGMAS * math.hypot(spread.pos_std_m, global_spread.pos_std_m):
+        spread = replace(spread, pos_std_m=max(spread.pos_std_m, shift / AGREEMENT_SIGMAS))
     if global_spread.dir_std_rad < spread.dir_std_rad:  # the whole model turns the axis more surely (a door's leaf)
         spread = replace(spread, dir_std_rad=global_spread.dir_std_rad)
-        return AxisFit(fitted, spread, local=True, direction_from=whole, whole_shift_m=shift, whole_turn_rad=turn)
-    spread = replace(spread, dir_std_rad=max(spread.dir_std_rad, turn / AGREEMENT_SIGMAS))
-    return AxisFit(fitted, spread, local=True, whole_shift_m=shift, whole_turn_rad=turn)
+        return AxisFit(
+            fitted, spread, local=True, direction_from=whole, whole_shift_m=shift, whole_turn_rad=turn,
+            fit_pos_std_m=own,
+        )  # fmt: skip
+    if turn > AGREEMENT_SIGMAS * math.hypot(spread.dir_std_rad, global_spread.dir_std_rad):
+        spread = replace(spread, dir_std_rad=max(spread.dir_std_rad, turn / AGREEMENT_SIGMAS))
+    return AxisFit(fitted, spread, local=True, whole_shift_m=shift, whole_turn_rad=turn, fit_pos_std_m=own)
 
 
 @dataclass(frozen=True)

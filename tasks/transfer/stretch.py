@@ -205,6 +205,8 @@ def _matched(
     turned = carried_normals(current, source_normals)
     agree = np.abs(np.einsum("ij,ij->i", turned[ok], target_normals[idx[ok]]))
     ok[ok] &= agree >= NORMAL_COS
+    if not ok.any():
+        return moved, turned, idx, ok
     q = tree.data[idx[ok]]
     _, near = cKDTree(moved).query(q, k=min(NEAREST_K, len(moved)))
     near = near.reshape(len(q), -1)
@@ -287,10 +289,12 @@ def line_spread(
     line: tuple[Vector3, Vector3],
     free_stretch: bool = True,
 ) -> FitSpread:
-    """The covariance of ``fitted``'s unknowns (residual variance times the inverse of the pairs' information,
-    ``CORRELATED_POINTS`` pairs counting as one) carried to the line (point, unit direction; source frame). The
-    information comes from the carried source normals: a direction only the scan's noisy normals see stays
-    free."""
+    """The covariance of ``fitted``'s unknowns carried to the line (point, unit direction; source frame): the
+    inverse of the pairs' information over the residual variance (``CORRELATED_POINTS`` pairs counting as one)
+    plus what the fit knows before the pairs, that it moved the model by no more than the correspondence
+    distance ``dist_m`` (translations within it, turns moving the pairs by at most it, factors within
+    ``MAX_STRETCH``). The information comes from the carried source normals; a direction no pair constrains (a
+    hinge on a face the scan lacks) keeps the prior's sigma, not none."""
     tree = cKDTree(target)
     moved, turned, idx, ok = _matched(
         fitted, source, source_normals, target_normals=target_normals, tree=tree, dist_m=dist_m
@@ -304,11 +308,15 @@ def line_spread(
     plane_rows = len(p)
     rms = float(np.sqrt(np.mean(residual[:plane_rows] ** 2)))
     a = a[:plane_rows, :unknowns]  # the planes' information (the point terms see the sampling, not the surface)
-    info = (a * w[:plane_rows, None]).T @ a / CORRELATED_POINTS
-    cov = np.linalg.pinv(info, rcond=1e-10) * rms**2
+    info = (a * w[:plane_rows, None]).T @ a / CORRELATED_POINTS / max(rms, 1e-9) ** 2
+    centre = p.mean(axis=0)
+    reach = float(np.sqrt(np.mean(((p - centre) ** 2).sum(axis=1))))
+    prior = np.full(unknowns, 1.0 / dist_m**2)  # translations
+    prior[:3] = (reach / dist_m) ** 2  # rotations: a turn moving the pairs by dist_m
+    prior[6:] = 1.0 / math.log(MAX_STRETCH) ** 2
+    cov = np.linalg.inv(info + np.diag(prior))
     pos, direction = line
     moved_pos, moved_dir = fitted.carry_line(pos, direction)
-    centre = p.mean(axis=0)
     jac = np.zeros((3, unknowns))
     jac[:, :3] = -_skew(moved_pos - centre)
     jac[:, 3:6] = np.eye(3)

@@ -89,3 +89,13 @@ def test_uncertainty_combines_learned_and_registration() -> None:
     bare = axis_uncertainty(Primitive("translation", None, (0.0, 1.0, 0.0), 0.1), AxisFit(fitted, spread, False), 1.0)
     assert bare.learned_dir_std_rad is None and bare.dir_std_rad == pytest.approx(spread.dir_std_rad)
     assert "pos_std_m" not in with_uncertainty(Primitive("translation", None, (0.0, 1.0, 0.0), 0.1), bare).fit
+
+
+def test_stretch_icp_without_facing_pairs_keeps_its_start() -> None:
+    rng = np.random.default_rng(3)
+    face = shapes.box(np.array([0.4, 0.3, 0.5]), np.zeros(3))
+    source, source_n = shapes.sample_parts(face[2:3], 500, rng)  # the front face (-y)
+    target, target_n = shapes.sample_parts(face[0:1], 500, rng)  # a side face (-x): no normal agrees
+    start = Stretched(Similarity.identity(), np.eye(3), np.ones(3), np.zeros(3))
+    fitted = stretch_icp(source, target, target_n, start, 1.0, source_normals=source_n)
+    assert fitted is start
