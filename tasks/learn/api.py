@@ -109,7 +109,7 @@ def fit_segments(rec: RecordingData, spans: list[tuple[float, float]], params: L
         fits = merge_adjacent(prep, fits, params)
         fits = split_reversals(prep, fits, params)
         fits = trim_to_motion(prep, fits)
-        fits = refine_boundaries(prep, fits)  # first: the rests then hold no slow start or stop of the motion
+        fits = refine_boundaries(prep, fits, params)  # first: the rests then hold no slow start or stop of the motion
         fits = refine_extents(prep, fits)
         fits = drop_small(fits, params.min_motion_m)
     chain = tuple(_primitive(f) for f in fits if f.kind in ("rotation", "translation"))

@@ -16,7 +16,8 @@ import numpy as np
 
 from tasks.arrays import FloatArray
 from tasks.fit.geometry import perpendicular_basis
-from tasks.learn.chain import SegmentFit, rest_window
+from tasks.learn.chain import SegmentFit, fit_span, rest_window
+from tasks.learn.params import LearnParams
 from tasks.learn.prepare import MIN_SAMPLES, PreparedRecording
 from tasks.segment.tracks import Track
 
@@ -90,17 +91,19 @@ def _departure(t: FloatArray, c: FloatArray, rest: FloatArray, noise: float) -> 
     return float(t[hits[0]])
 
 
-def refine_boundaries(prep: PreparedRecording, fits: list[SegmentFit]) -> list[SegmentFit]:
+def refine_boundaries(prep: PreparedRecording, fits: list[SegmentFit], params: LearnParams) -> list[SegmentFit]:
     """Each primitive's start and end (s) moved into the neighbouring rests of its part up to where the part is
-    seen to leave or reach them; the still segments it reaches into shrink to match (and go when nothing is left)."""
+    seen to leave or reach them. Segments never overlap: the still segments it reaches into shrink to match, and
+    any other segment it reaches into is fitted again on what is left of it (each goes when nothing is left)."""
     by_name = {tr.name: tr for tr in prep.tracks}
     out = list(fits)
-    for i, f in enumerate(fits):
+    for i in range(len(out)):
+        f = out[i]
         if f.kind not in ("rotation", "translation"):
             continue
         names = [n for n in f.markers if n not in prep.hand] or list(f.markers)
         tracks = [by_name[n] for n in names]
-        windows = [rest_window(n, fits, i, -1) for n in names], [rest_window(n, fits, i, +1) for n in names]
+        windows = [rest_window(n, out, i, -1) for n in names], [rest_window(n, out, i, +1) for n in names]
         lo = max((w[0] for w in windows[0] if w is not None), default=None)
         hi = min((w[1] for w in windows[1] if w is not None), default=None)
         start, end = f.t_start, f.t_end
@@ -126,21 +129,34 @@ def refine_boundaries(prep: PreparedRecording, fits: list[SegmentFit]) -> list[S
             end = max(end, found) if found is not None else end
         out[i] = replace(f, t_start=float(start), t_end=float(end))
         k = i - 1
-        while k >= 0 and out[k].kind == "still" and out[k].t_end > start:
-            out[k] = replace(out[k], t_end=max(float(start), out[k].t_start))
+        while k >= 0 and out[k].t_end > start:
+            out[k] = _cut(prep, out[k], out[k].t_start, max(float(start), out[k].t_start), params)
             k -= 1
         k = i + 1
-        while k < len(out) and out[k].kind == "still" and out[k].t_start < end:
-            out[k] = replace(out[k], t_start=min(float(end), out[k].t_end))
+        while k < len(out) and out[k].t_start < end:
+            out[k] = _cut(prep, out[k], min(float(end), out[k].t_end), out[k].t_end, params)
             k += 1
-    return [f for f in out if f.kind != "still" or f.t_end > f.t_start]
+    return [f for f in out if f.t_end > f.t_start]
 
 
-def _settled(level: FloatArray, tol: float) -> tuple[int, int]:
-    """The last index before the sequence first leaves its first value by more than ``tol``, and the first index
-    from which it stays within ``tol`` of its last value (NaN-free input)."""
-    away_start = np.flatnonzero(np.abs(level - level[0]) > tol)
-    away_end = np.flatnonzero(np.abs(level - level[-1]) > tol)
+def _cut(prep: PreparedRecording, f: SegmentFit, t0: float, t1: float, params: LearnParams) -> SegmentFit:
+    """Segment ``f`` cut to [t0, t1) (s): a still one keeps its kind, any other is fitted again on the samples
+    left (a span too short to fit is still); an empty span has ``t_end == t_start``."""
+    if (t0, t1) == (f.t_start, f.t_end):
+        return f
+    if f.kind == "still" or t1 <= t0:
+        return replace(f, t_start=t0, t_end=max(t0, t1))
+    return fit_span(prep, t0, t1, params)
+
+
+def _settled(level: FloatArray, tol: float, edge: int) -> tuple[int, int]:
+    """The last index before the sequence first leaves its starting level by more than ``tol``, and the first index
+    from which it stays within ``tol`` of its final level (NaN-free input). The levels are taken ``edge`` samples in
+    from each end, the first values whose moving average had a full window: a value at the very end averages half as
+    many samples, and its larger noise would read as motion."""
+    edge = min(max(edge, 0), (len(level) - 1) // 2)
+    away_start = np.flatnonzero(np.abs(level - level[edge]) > tol)
+    away_end = np.flatnonzero(np.abs(level - level[len(level) - 1 - edge]) > tol)
     first = int(away_start[0]) - 1 if len(away_start) else 0
     last = int(away_end[-1]) + 1 if len(away_end) else len(level) - 1
     return max(first, 0), min(last, len(level) - 1)
@@ -182,7 +198,8 @@ def trim_to_motion(prep: PreparedRecording, fits: list[SegmentFit]) -> list[Segm
             out.append(f)
             continue
         t_ok = grid[ok]
-        first, last = _settled(level[ok], REST_SIGMAS * noise)
+        dt = float(np.median(np.diff(t_ok)))
+        first, last = _settled(level[ok], REST_SIGMAS * noise, round(SMOOTH_S / dt) // 2 if dt > 0 else 0)
         start = float(t_ok[first]) if first > 0 else f.t_start
         end = float(t_ok[last]) if last < len(t_ok) - 1 else f.t_end
         if end - start < SMOOTH_S:

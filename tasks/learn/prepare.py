@@ -12,6 +12,7 @@ from scipy.spatial.transform import Rotation
 from tasks.arrays import FloatArray, Points, Quats, StampsNs
 from tasks.errors import FitError
 from tasks.fit.noise import robust_variance
+from tasks.fit.select import SIGMA_MIN_M
 from tasks.recording.load import PoseTrack, RecordingData
 from tasks.segment.tracks import Track, make_track
 
@@ -109,7 +110,9 @@ degrees of freedom) less than once in a million samples."""
 def isolated_jumps(t_s: FloatArray, pts: Points) -> npt.NDArray[np.bool_]:
     """(n,) True where a sample leaves its path for that sample alone (see ``SPIKE_SIGMAS``): its offset from the
     line between its neighbours (interpolated in time) exceeds ``SPIKE_SIGMAS`` robust per-axis sigmas of that
-    offset and both neighbours' offsets, which point the other way."""
+    offset and both neighbours' offsets, which point the other way. The first and the last sample have no
+    neighbour to come back to: each is dropped when it misses the line through the two next to it by as much
+    (the threshold scaled by that extrapolation's larger noise gain), since no sample can confirm it as motion."""
     out = np.zeros(len(pts), dtype=bool)
     if len(pts) < 5:
         return out
@@ -118,9 +121,7 @@ def isolated_jumps(t_s: FloatArray, pts: Points) -> npt.NDArray[np.bool_]:
         return out
     w = dt[:-1] / (dt[:-1] + dt[1:])
     offset = pts[1:-1] - ((1.0 - w)[:, None] * pts[:-2] + w[:, None] * pts[2:])
-    scale = float(np.sqrt(np.mean(robust_variance(offset))))
-    if scale <= 0.0:
-        return out
+    scale = max(float(np.sqrt(np.mean(robust_variance(offset)))), SIGMA_MIN_M)
     size = np.linalg.norm(offset, axis=1)
     inner = slice(1, -1)
     spike = size[inner] > SPIKE_SIGMAS * scale
@@ -128,6 +129,12 @@ def isolated_jumps(t_s: FloatArray, pts: Points) -> npt.NDArray[np.bool_]:
     spike &= np.einsum("ij,ij->i", offset[inner], offset[:-2]) < 0
     spike &= np.einsum("ij,ij->i", offset[inner], offset[2:]) < 0
     out[2:-2] = spike
+    gain_inner = float(np.mean(1.0 + w**2 + (1.0 - w) ** 2))
+    for end, prev, before in ((len(pts) - 1, len(pts) - 2, len(pts) - 3), (0, 1, 2)):
+        r = abs(t_s[end] - t_s[prev]) / abs(t_s[prev] - t_s[before])
+        miss = pts[end] - (pts[prev] + r * (pts[prev] - pts[before]))
+        gain_end = 1.0 + (1.0 + r) ** 2 + r**2
+        out[end] = float(np.linalg.norm(miss)) > SPIKE_SIGMAS * scale * np.sqrt(gain_end / gain_inner)
     return out
 
 

@@ -3,6 +3,7 @@ hand markers, open-and-close, camera noise, rigid-body orientations and real tra
 
 from __future__ import annotations
 
+import itertools
 import json
 from pathlib import Path
 
@@ -12,7 +13,7 @@ from scipy.spatial.transform import Rotation
 
 from flows.cli import main as pbd
 from tasks.fit.geometry import angle_between_axes
-from tasks.learn.api import learn_chain
+from tasks.learn.api import fit_segments, learn_chain
 from tasks.learn.params import LearnParams
 from tasks.learn.prepare import isolated_jumps
 from tasks.recording.load import MarkerTrack, PoseTrack, RecordingData
@@ -197,6 +198,53 @@ def test_one_sample_tracking_glitches_are_dropped_and_real_motion_kept(hz: float
     assert [p.kind for p in result.chain] == ["translation"]
     assert abs(result.chain[0].extent - 0.5) < max(0.01, 4.0 * noise_m)
     assert any("isolated jumps dropped" in w for w in result.warnings)
+
+
+@pytest.mark.parametrize(("hz", "noise_m"), [(10.0, 0.0015), (120.0, 0.0005), (240.0, 0.002)])
+def test_a_glitch_on_the_first_or_last_sample_is_dropped_not_learned(hz: float, noise_m: float) -> None:
+    """A door swung 0.6 rad about a hinge 0.5 m away, its recording ending (and starting) on a sample 4 cm off the
+    path: no later sample can bring the marker back, so the glitch would read as a last step of motion. Both ends
+    are dropped, no other sample is, and the chain is the one rotation with its extent."""
+    rng = RNG(21)
+    t = np.arange(0.0, 4.0, 1.0 / hz)
+    angle = 0.6 * _ease((t - 1.0) / 1.5)
+    pts = _door_point(angle, 0.5) + rng.normal(0.0, noise_m, (len(t), 3))
+    pts[0] += np.array([0.0, 0.04, 0.0])
+    pts[-1] += np.array([0.03, 0.0, -0.03])
+    jumps = isolated_jumps(t, pts)
+    assert jumps[0] and jumps[-1] and jumps.sum() == 2
+    (prim,) = learn_chain(_recording({"marker_2": (t, pts)}), LearnParams(), RNG(0)).chain
+    assert prim.kind == "rotation"
+    assert abs(prim.extent - 0.6) < 0.03
+
+
+def test_a_still_marker_at_exactly_zero_noise_has_no_jumps() -> None:
+    """A marker written with no noise at all (a simulator's exact track) has zero robust scatter; a straight
+    constant-speed path is then no jump anywhere, ends included."""
+    t = np.arange(0.0, 2.0, 0.01)
+    pts = np.outer(t, [0.1, 0.0, 0.0])
+    assert not isolated_jumps(t, pts).any()
+
+
+@pytest.mark.parametrize("cut_s", [4.1, 4.3])
+def test_a_swing_cut_before_it_ends_keeps_its_own_span_and_no_segments_overlap(cut_s: float) -> None:
+    """A door swings 1 rad from 2.5 to 4.5 s while the hand rides on its handle, and the hand withdraws from 4.4 s.
+    Given a cut before the swing ends (the last part of the swing shares a segment with the withdrawal), the
+    rotation still ends where the door comes to rest, and the segment after it starts there: no two overlap."""
+    t = np.arange(0.0, 7.0, 1.0 / 60.0)
+    angle = 1.0 * _ease((t - 2.5) / 2.0)
+    handle = _door_point(angle, 0.6) + np.array([0.0, 0.0, 0.03])
+    away = handle[-1] + _ease((t - 4.4) / 1.5)[:, None] * np.array([-0.3, 0.4, 0.1])
+    markers = {"marker_0": _door_point(angle, 0.6), "marker_1": _door_point(angle, 0.45, 0.2)}
+    markers["right_hand"] = np.where(t[:, None] >= 4.4, away, handle)
+    rng = RNG(1)
+    noisy = {n: (t, p + rng.normal(0.0, 0.0005, p.shape)) for n, p in markers.items()}
+    result = fit_segments(_recording(noisy), [(0.0, 2.5), (2.5, cut_s), (cut_s, 7.0 + 1e-9)], LearnParams())
+    (prim,) = result.chain
+    assert prim.kind == "rotation" and abs(prim.extent - 1.0) < 0.03
+    assert 4.3 < prim.t_end < 4.6
+    for a, b in itertools.pairwise(result.segments):
+        assert a.t_end <= b.t_start + 1e-9
 
 
 def test_a_knob_turned_then_its_door_swung_are_two_rotations() -> None:
