@@ -123,7 +123,7 @@ def fit_span(
         return SegmentFit(kind, t0, t1, (names[primary],), still, rf, tf, {}, tf.eigenvalues, _extent(kind, rf, tf))
 
     tf = fit_translation(pts)
-    sigma = float(np.sqrt(np.mean([tr.sigma_m**2 for tr in group])))
+    sigma = model_sigma(group, pts, params.sigma_floor_m)
     sigma_hf = float(np.sqrt(np.mean([tr.sigma_hf_m**2 for tr in group])))
     motion = _part_motion(group, prep, t0, t1) if params.use_orientations else None
     screw = screw_axis(motion) if motion is not None else None
@@ -152,6 +152,20 @@ def fit_span(
     return SegmentFit(kind, t0, t1, names, still, rf, tf, scores, tf.eigenvalues, _extent(kind, rf, tf))
 
 
+PATH_DEVIATION = 0.0075
+"""A mechanism's path strays from its ideal circle or line by about this fraction of the path's size: play and
+flex of a few tenths of a degree times the lever arm (a hinge's 1-6 mm over half-metre door paths)."""
+
+
+def model_sigma(group: list[Track], pts: list[Points], floor_m: float) -> float:
+    """Noise sigma (m) the motion models are judged with: each marker's sensor noise, or the mechanism's own
+    deviation from an ideal path when larger, ``floor_m`` on a large path and ``PATH_DEVIATION`` of a small one
+    (a 3 cm lever's arc is not within 2 mm of a line by play)."""
+    size = max((float(np.ptp(p, axis=0).max()) for p in pts if len(p)), default=0.0)
+    floor = min(floor_m, PATH_DEVIATION * size)
+    return float(np.sqrt(np.mean([max(tr.sigma_hf_m, floor) ** 2 for tr in group])))
+
+
 MIN_RADIUS_SIGMAS = 3.0
 """A rotation needs its largest marker radius at least this many model noise sigmas: a smaller circle does not
 resolve its centre from the samples' scatter, and a circle fitted to scatter alone has a radius of about sigma."""
@@ -163,12 +177,13 @@ SWEPT_PERCENTILE = 2.0
 
 def swept_angle(pts: list[Points], rf: RotationFit) -> float:
     """Widest arc (rad) that a marker's samples cover about the fitted axis: a door swung to and fro covers its
-    arc whatever its net turn."""
+    arc whatever its net turn. The arc between the first and the last sample counts whatever lies between them:
+    a part seen at one end of an occlusion gap and again at its other end turned through the gap."""
     out = 0.0
     for p in pts:
         ang = angles_about(p, rf.pos, rf.dir)
         lo, hi = np.percentile(ang, [SWEPT_PERCENTILE, 100.0 - SWEPT_PERCENTILE])
-        out = max(out, float(hi - lo))
+        out = max(out, float(hi - lo), abs(float(ang[-1] - ang[0])))
     return out
 
 
