@@ -145,13 +145,15 @@ def refine_boundaries(prep: PreparedRecording, fits: list[SegmentFit], params: L
 
 
 def _widened(prep: PreparedRecording, f: SegmentFit, start: float, end: float, params: LearnParams) -> SegmentFit:
-    """Primitive ``f`` over [start, end] (s), fitted again when its span grew: the first sample at the rest after the
-    motion is included, since the motion runs from the last rest sample before to the first after (across an
-    occlusion gap, those two are all that is seen of its end). The new fit stands when it still moves."""
+    """Primitive ``f`` over [start, end] (s). When its span grew, the part's path is classified again from the last
+    rest sample before the motion to the first after it (across an occlusion gap, those are all that is seen of
+    the motion's end): a path that this shows to be of the other kind of motion gets that kind's fit; otherwise
+    ``f``'s fit stands, which may hold more evidence than its span (a swing cut at a reversal keeps the fit of
+    the whole to-and-fro)."""
     if (start, end) == (f.t_start, f.t_end):
         return f
     refit = fit_span(prep, start, float(np.nextafter(end, np.inf)), params)
-    if refit.kind in ("rotation", "translation"):
+    if refit.kind in ("rotation", "translation") and refit.kind != f.kind:
         return replace(refit, t_end=end)
     return replace(f, t_start=start, t_end=end)
 

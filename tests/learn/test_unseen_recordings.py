@@ -302,4 +302,5 @@ def test_a_short_lever_arc_under_low_noise_is_a_rotation_not_a_line(noise_m: flo
     (prim,) = learn_chain(_recording(markers), LearnParams(), RNG(0)).chain
     assert prim.kind == "rotation"
     assert abs(prim.extent - 0.47) < 0.03
-    assert angle_between_axes(np.array(prim.dir), np.array([0.0, 1.0, 0.0]), signed=False) < np.radians(3.0)
+    off = angle_between_axes(np.array(prim.dir), np.array([0.0, 1.0, 0.0]), signed=False)
+    assert off < 3.0 * prim.fit["dir_std_rad"] < np.radians(10.0)
