@@ -78,10 +78,12 @@ def marker_kind(track: Track, t0: float, t1: float, undefined: float) -> Kind | 
 
 
 def rigid_with(track: Track, ref: Track, t0: float, t1: float, tol: float) -> bool:
-    """Whether ``track`` keeps its distance to ``ref`` over [t0, t1) (s) within ``tol`` (std, m)."""
+    """Whether ``track`` keeps its distance to ``ref`` over [t0, t1) (s) within ``tol`` (std, m). A distance's
+    spread needs the few samples a model does (``MIN_MODEL_SAMPLES``), not the more a marker's fit needs: a
+    hand riding a drawer for 0.6 s is 7 samples at 11 Hz."""
     t, p = _samples(track, t0, t1)
     tr, pr = _samples(ref, t0, t1)
-    if len(t) < MIN_SAMPLES or len(tr) < 2:
+    if len(t) < MIN_MODEL_SAMPLES or len(tr) < 2:
         return False
     ref_at = np.column_stack([np.interp(t, tr, pr[:, i]) for i in range(3)])
     return float(np.std(np.linalg.norm(p - ref_at, axis=1))) < tol

@@ -304,3 +304,30 @@ def test_a_short_lever_arc_under_low_noise_is_a_rotation_not_a_line(noise_m: flo
     assert abs(prim.extent - 0.47) < 0.03
     off = angle_between_axes(np.array(prim.dir), np.array([0.0, 1.0, 0.0]), signed=False)
     assert off < 3.0 * prim.fit["dir_std_rad"] < np.radians(10.0)
+
+
+@pytest.mark.parametrize("hz", [10.0, 12.0])
+def test_an_unnamed_hand_that_withdraws_soon_after_a_drawer_stops_is_dropped(hz: float) -> None:
+    """A drawer (a tracked rigid body, 2 mm noise) slides 0.27 m from 3.0 to 3.8 s; two unnamed hand markers reach
+    for its handle along a curve, ride with it (7-8 samples), and withdraw from 4.2 s. At 10-12 Hz the change points
+    may join the drawer's stop and the withdrawal in one span; the part's rests between them show the hand alone."""
+    t = np.arange(0.0, 6.0, 1.0 / hz)
+    slide = 0.27 * _ease((t - 3.0) / 0.8)
+    body = HINGE + np.column_stack([np.zeros_like(t), -slide, np.zeros_like(t)])
+    handle = body + np.array([0.0, -0.05, 0.04])
+    start = handle[0] + np.array([-0.35, -0.2, -0.25])
+    u = _ease((t - 0.8) / 1.8)[:, None]
+    reach = start + u * (handle[0] - start) + np.sin(np.pi * u) * np.array([0.0, 0.1, 0.12])
+    hand = np.where(t[:, None] < 2.6, reach, handle)
+    w = _ease((t - 4.2) / 0.8)[:, None]
+    hand = np.where(t[:, None] >= 4.2, handle[-1] + w * np.array([-0.3, -0.1, 0.2]), hand)
+    rng = RNG(1)
+    markers = {
+        "marker_24": (t, hand + rng.normal(0.0, 0.002, hand.shape)),
+        "marker_18": (t, hand + np.array([0.02, 0.0, 0.01]) + rng.normal(0.0, 0.002, hand.shape)),
+    }
+    quat = np.tile([0.0, 0.0, 0.0, 1.0], (len(t), 1))
+    pose = PoseTrack("RigidBody1", "markers", _stamps(t), body + rng.normal(0.0, 0.002, body.shape), quat)
+    (prim,) = learn_chain(_recording(markers, {"RigidBody1": pose}), LearnParams(), RNG(0)).chain
+    assert prim.kind == "translation"
+    assert abs(prim.extent - 0.27) < 0.02
