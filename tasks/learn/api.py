@@ -134,7 +134,7 @@ def _fitted(prep: PreparedRecording, spans: list[tuple[float, float]], params: L
         fits = trim_to_motion(prep, fits)
         fits = refine_boundaries(prep, fits, params)  # first: the rests then hold no slow start or stop of the motion
         fits = refine_extents(prep, fits)
-        fits = drop_small(fits, params.min_motion_m)
+        fits = drop_small(prep, fits, params.min_motion_m)
     return fits
 
 

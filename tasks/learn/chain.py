@@ -507,14 +507,24 @@ def motion_m(f: SegmentFit) -> float:
     return f.extent if f.kind == "translation" else 0.0
 
 
-def drop_small(fits: list[SegmentFit], min_motion_m: float) -> list[SegmentFit]:
-    """Primitives that move the part less than ``min_motion_m`` become undefined (wiggles before a grasp)."""
-    return [
-        replace(f, kind="undefined", note=f"moves {motion_m(f) * 1000:.1f} mm < {min_motion_m * 1000:.1f} mm")
-        if f.kind in ("rotation", "translation") and motion_m(f) < min_motion_m
-        else f
-        for f in fits
-    ]
+def drop_small(prep: PreparedRecording, fits: list[SegmentFit], min_motion_m: float) -> list[SegmentFit]:
+    """Primitives that move the part less than ``min_motion_m`` (wiggles before a grasp), or that no marker of
+    theirs samples ``MIN_MODEL_SAMPLES`` times (a circle passes through any three points: a few samples of coloured
+    noise cut at their turning points support no motion model), become undefined."""
+    by_name = {tr.name: tr for tr in prep.tracks}
+    return [_small(f, min_motion_m, by_name) for f in fits]
+
+
+def _small(f: SegmentFit, min_motion_m: float, tracks: dict[str, Track]) -> SegmentFit:
+    if f.kind not in ("rotation", "translation"):
+        return f
+    if motion_m(f) < min_motion_m:
+        return replace(f, kind="undefined", note=f"moves {motion_m(f) * 1000:.1f} mm < {min_motion_m * 1000:.1f} mm")
+    counts = [np.subtract(*span_indices(tracks[n], f.t_start, f.t_end)[::-1]) for n in f.markers if n in tracks]
+    samples = int(max(counts, default=0))
+    if samples < MIN_MODEL_SAMPLES:
+        return replace(f, kind="undefined", note=f"{samples} samples < {MIN_MODEL_SAMPLES}")
+    return f
 
 
 def primitive_fit_json(f: SegmentFit) -> dict[str, Any]:

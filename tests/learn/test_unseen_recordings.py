@@ -13,9 +13,11 @@ from scipy.spatial.transform import Rotation
 
 from flows.cli import main as pbd
 from tasks.fit.geometry import angle_between_axes
+from tasks.fit.rotation import fit_rotation
 from tasks.learn.api import fit_segments, learn_chain
+from tasks.learn.chain import SegmentFit, drop_small
 from tasks.learn.params import LearnParams
-from tasks.learn.prepare import isolated_jumps
+from tasks.learn.prepare import isolated_jumps, prepare
 from tasks.recording.load import MarkerTrack, PoseTrack, RecordingData
 from tasks.recording.writer import RecordingWriter
 from tests.conftest import REAL
@@ -356,3 +358,18 @@ def test_a_hand_withdrawing_right_after_a_noisy_door_closes_is_dropped(hz: float
     chain = learn_chain(_recording(markers, {"Body 3": pose}), LearnParams(), RNG(0)).chain
     assert [p.kind for p in chain] == ["rotation", "rotation"]
     assert all(abs(p.extent - 1.0) < 0.1 for p in chain)
+
+
+def test_a_primitive_on_fewer_samples_than_a_model_needs_is_undefined() -> None:
+    """Three samples of arc (0.13 s at 15 Hz), however far they swing, support no motion model (a circle passes
+    through any three points): the primitive becomes undefined with a note; the same arc over 1 s stays."""
+    t = np.arange(0.0, 3.0, 1.0 / 15.0)
+    angle = np.clip((t - 1.0) * 0.4, 0.0, 0.4)
+    rec = _recording({"a": (t, _door_point(angle, 0.3)), "b": (t, _door_point(angle, 0.2, 0.1))})
+    prep = prepare(rec, LearnParams().sigma_floor_m, LearnParams().hand_pattern)
+    rf = fit_rotation([_door_point(np.linspace(0.0, 0.4, 3), 0.3)], 0.002)
+    for duration, kind in ((0.13, "undefined"), (1.0, "rotation")):
+        f = SegmentFit("rotation", 1.0, 1.0 + duration, ("a", "b"), rotation=rf, extent=0.4)
+        (out,) = drop_small(prep, [f], 0.015)
+        assert out.kind == kind
+        assert (kind == "undefined") == out.note.endswith("samples < 4")
