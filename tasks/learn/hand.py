@@ -72,8 +72,11 @@ def hand_by_motion(prep: PreparedRecording, spans: list[tuple[float, float]], pa
             continue
         first = mov_o.index(True)
         last = len(mov_o) - 1 - mov_o[::-1].index(True)
-        reach = any(mov_h[:first]) and _distance_changes(bodies[h], bodies[o], spans[0], spans[first])
-        withdraw = any(mov_h[last + 1 :]) and _distance_changes(bodies[h], bodies[o], spans[last], spans[-1])
+        hb, ob = bodies[h], bodies[o]
+        reach = any(mov_h[:first]) and any(_distance_changes(hb, ob, spans[i], spans[first]) for i in range(first))
+        withdraw = any(mov_h[last + 1 :]) and any(
+            _distance_changes(hb, ob, spans[last], spans[i]) for i in range(last + 1, len(spans))
+        )
         if not (reach and withdraw):
             continue
         ride = any(

@@ -373,3 +373,16 @@ def test_a_primitive_on_fewer_samples_than_a_model_needs_is_undefined() -> None:
         (out,) = drop_small(prep, [f], 0.015)
         assert out.kind == kind
         assert (kind == "undefined") == out.note.endswith("samples < 4")
+
+
+@pytest.mark.parametrize("hz", [20.0, 120.0])
+def test_an_unnamed_hand_occluded_at_the_end_of_its_withdrawal_is_dropped(hz: float) -> None:
+    """The unnamed hand of ``_reach_ride_withdraw`` is lost to the cameras for the last 0.6 s of the recording,
+    while it withdraws: the distance it gained from the door before it was lost shows the withdrawal."""
+    markers = _reach_ride_withdraw(hz, RNG(3))
+    t, hand = markers["marker_2"]
+    seen = t < 6.4
+    markers["marker_2"] = (t[seen], hand[seen])
+    (prim,) = learn_chain(_recording(markers), LearnParams(), RNG(0)).chain
+    assert prim.kind == "rotation"
+    assert abs(prim.extent - 1.0) < 0.05
