@@ -131,6 +131,7 @@ def _fitted(prep: PreparedRecording, spans: list[tuple[float, float]], params: L
     if params.classifier == "bic":
         fits = merge_adjacent(prep, fits, params)
         fits = split_reversals(prep, fits, params)
+        fits = merge_adjacent(prep, fits, params)  # a reversal inside a span leaves its second leg in two pieces
         fits = trim_to_motion(prep, fits)
         fits = refine_boundaries(prep, fits, params)  # first: the rests then hold no slow start or stop of the motion
         fits = refine_extents(prep, fits)
