@@ -309,8 +309,10 @@ def merge_adjacent(prep: PreparedRecording, fits: list[SegmentFit], params: Lear
         changed = False
         moving = [i for i, f in enumerate(out) if f.kind in ("rotation", "translation")]
         for i, j in itertools.pairwise(moving):
-            if any(out[k].kind in ("rotation", "translation") for k in range(i + 1, j)) or not same_joint(
-                prep, out[i], out[j]
+            if (
+                any(out[k].kind in ("rotation", "translation") for k in range(i + 1, j))
+                or not same_joint(prep, out[i], out[j])
+                or _legs_of_one_reversal(out[i], out[j])
             ):
                 continue
             union = fit_span(prep, out[i].t_start, out[j].t_end, params)
@@ -326,6 +328,20 @@ def merge_adjacent(prep: PreparedRecording, fits: list[SegmentFit], params: Lear
                 changed = True
                 break
     return out
+
+
+def _legs_of_one_reversal(a: SegmentFit, b: SegmentFit) -> bool:
+    """Whether ``a`` and ``b`` are two legs of one motion split at its reversal (``tasks.learn.reversals``): one fit,
+    its direction turned; they go opposite ways and are never one motion, so no union is fitted for them."""
+    if a.kind != b.kind:
+        return False
+    if a.rotation is not None and b.rotation is not None and a.kind == "rotation":
+        fa, fb = a.rotation, b.rotation
+        return bool(np.array_equal(fa.pos, fb.pos) and np.allclose(fa.dir, -fb.dir))
+    if a.translation is not None and b.translation is not None and a.kind == "translation":
+        ta, tb = a.translation, b.translation
+        return bool(np.array_equal(ta.centroid, tb.centroid) and np.allclose(ta.dir, -tb.dir))
+    return False
 
 
 def rest_window(name: str, fits: list[SegmentFit], i: int, step: int) -> tuple[float, float] | None:
