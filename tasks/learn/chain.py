@@ -85,8 +85,14 @@ def rigid_with(track: Track, ref: Track, t0: float, t1: float, tol: float) -> bo
     tr, pr = _samples(ref, t0, t1)
     if len(t) < MIN_MODEL_SAMPLES or len(tr) < 2:
         return False
-    ref_at = np.column_stack([np.interp(t, tr, pr[:, i]) for i in range(3)])
-    return float(np.std(np.linalg.norm(p - ref_at, axis=1))) < tol
+    return float(np.std(distances_to(t, p, tr, pr))) < tol
+
+
+def distances_to(t_s: FloatArray, pts: Points, ref_t_s: FloatArray, ref_pts: Points) -> FloatArray:
+    """Distances (m) of samples at times ``t_s`` (s) to a reference marker interpolated linearly at those times."""
+    ref_at = np.column_stack([np.interp(t_s, ref_t_s, ref_pts[:, i]) for i in range(3)])
+    out: FloatArray = np.linalg.norm(pts - ref_at, axis=1)
+    return out
 
 
 def fit_span(
@@ -536,8 +542,8 @@ def _small(f: SegmentFit, min_motion_m: float, tracks: dict[str, Track]) -> Segm
         return f
     if motion_m(f) < min_motion_m:
         return replace(f, kind="undefined", note=f"moves {motion_m(f) * 1000:.1f} mm < {min_motion_m * 1000:.1f} mm")
-    counts = [np.subtract(*span_indices(tracks[n], f.t_start, f.t_end)[::-1]) for n in f.markers if n in tracks]
-    samples = int(max(counts, default=0))
+    spans = [span_indices(tracks[n], f.t_start, f.t_end) for n in f.markers if n in tracks]
+    samples = max((j - i for i, j in spans), default=0)
     if samples < MIN_MODEL_SAMPLES:
         return replace(f, kind="undefined", note=f"{samples} samples < {MIN_MODEL_SAMPLES}")
     return f

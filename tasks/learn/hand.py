@@ -15,7 +15,7 @@ import itertools
 import numpy as np
 
 from tasks.arrays import FloatArray
-from tasks.learn.chain import marker_kind, rigid_with
+from tasks.learn.chain import distances_to, marker_kind, rigid_with
 from tasks.learn.params import LearnParams
 from tasks.learn.prepare import ORIENTATION_SEPARATOR, PreparedRecording
 from tasks.segment.tracks import Track, span_indices
@@ -64,7 +64,7 @@ def hand_by_motion(prep: PreparedRecording, spans: list[tuple[float, float]], pa
         in_span = _moving(tracks, spans, params.undefined_nats)
         in_window = _moving(tracks, cut, params.undefined_nats)
         moving[body] = [w and in_span[parent[i]] for i, w in enumerate(in_window)]
-    spans = cut
+    tol = params.rigid_tol_m
     hand: set[str] = set()
     for h, o in itertools.permutations(bodies, 2):
         mov_h, mov_o = moving[h], moving[o]
@@ -73,16 +73,13 @@ def hand_by_motion(prep: PreparedRecording, spans: list[tuple[float, float]], pa
         first = mov_o.index(True)
         last = len(mov_o) - 1 - mov_o[::-1].index(True)
         hb, ob = bodies[h], bodies[o]
-        reach = any(mov_h[:first]) and any(_distance_changes(hb, ob, spans[i], spans[first]) for i in range(first))
+        reach = any(mov_h[:first]) and any(_distance_changes(hb, ob, cut[i], cut[first], tol) for i in range(first))
         withdraw = any(mov_h[last + 1 :]) and any(
-            _distance_changes(hb, ob, spans[last], spans[i]) for i in range(last + 1, len(spans))
+            _distance_changes(hb, ob, cut[last], cut[i], tol) for i in range(last + 1, len(cut))
         )
         if not (reach and withdraw):
             continue
-        ride = any(
-            mov_h[i] and mov_o[i] and _rides(bodies[h], bodies[o], *spans[i], params.rigid_tol_m)
-            for i in range(first, last + 1)
-        )
+        ride = any(mov_h[i] and mov_o[i] and _rides(hb, ob, *cut[i], tol) for i in range(first, last + 1))
         if ride:
             hand.update(tr.name for tr in bodies[h])
     return frozenset(hand)
@@ -104,11 +101,11 @@ standard errors (and by more than the rigid tolerance)."""
 
 
 def _distance_changes(
-    hand: list[Track], part: list[Track], a: tuple[float, float], b: tuple[float, float], tol_m: float = 0.005
+    hand: list[Track], part: list[Track], a: tuple[float, float], b: tuple[float, float], tol_m: float
 ) -> bool:
     """Whether a marker of ``hand`` is at another distance from a marker of ``part`` over window ``a`` than over
-    window ``b`` (s): it reached or withdrew, where a marker of the part keeps its distance to all of the part
-    however its motion is seen to start."""
+    window ``b`` (s), by more than ``tol_m`` (m, the rigid tolerance): it reached or withdrew, where a marker of the
+    part keeps its distance to all of the part however its motion is seen to start."""
     for h, p in itertools.product(hand, part):
         da = _distances(h, p, *a)
         db = _distances(h, p, *b)
@@ -128,9 +125,6 @@ MEDIAN_EFFICIENCY = 1.2533
 def _distances(track: Track, ref: Track, t0: float, t1: float) -> FloatArray:
     """Distances (m) of ``track``'s samples in [t0, t1) (s) to ``ref`` interpolated at their times."""
     i, j = span_indices(track, t0, t1)
-    t, pts = track.t_s[i:j], track.points[i:j]
-    if len(ref.t_s) < 2 or not len(t):
+    if len(ref.t_s) < 2 or j <= i:
         return np.zeros(0)
-    ref_at = np.column_stack([np.interp(t, ref.t_s, ref.points[:, k]) for k in range(3)])
-    out: FloatArray = np.linalg.norm(pts - ref_at, axis=1)
-    return out
+    return distances_to(track.t_s[i:j], track.points[i:j], ref.t_s, ref.points)

@@ -41,6 +41,27 @@ def _door_point(angle: np.ndarray, radius: float, height: float = 0.0) -> np.nda
     return HINGE + np.column_stack([radius * np.cos(angle), radius * np.sin(angle), np.full_like(angle, height)])
 
 
+def _hand_path(
+    t: np.ndarray,
+    handle: np.ndarray,
+    *,
+    start: np.ndarray,
+    reach_s: tuple[float, float],
+    reach_bow: np.ndarray,
+    withdraw_s: tuple[float, float],
+    away: np.ndarray,
+    away_bow: np.ndarray | None = None,
+) -> np.ndarray:
+    """A hand (m, world) that reaches from ``start`` to the handle along a bowed curve over ``reach_s`` (s), rides on
+    the handle's path, and withdraws by ``away`` (bowed by ``away_bow``) over ``withdraw_s``."""
+    u = _ease((t - reach_s[0]) / (reach_s[1] - reach_s[0]))[:, None]
+    reach = start + u * (handle[0] - start) + np.sin(np.pi * u) * reach_bow
+    hand = np.where(t[:, None] < reach_s[1], reach, handle)
+    w = _ease((t - withdraw_s[0]) / (withdraw_s[1] - withdraw_s[0]))[:, None]
+    bow = np.zeros(3) if away_bow is None else away_bow
+    return np.where(t[:, None] >= withdraw_s[0], handle[-1] + w * away + np.sin(np.pi * w) * bow, hand)
+
+
 def _reach_ride_withdraw(hz: float, rng: np.random.Generator) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """Two door markers and an unnamed hand marker: the hand reaches along a curve while the door rests (0-2 s),
     rides 3 cm off the handle while the door turns 1 rad (2.5-4.5 s) and withdraws along another curve (5-6.5 s)."""
@@ -49,12 +70,16 @@ def _reach_ride_withdraw(hz: float, rng: np.random.Generator) -> dict[str, tuple
     door = {"marker_0": _door_point(angle, 0.6), "marker_1": _door_point(angle, 0.45, 0.2)}
     handle = _door_point(angle, 0.6) + np.array([0.0, 0.0, 0.03])
     start = handle[0] + np.array([-0.4, -0.3, -0.2])
-    u = _ease(t / 2.0)[:, None]
-    bow = np.sin(np.pi * u) * np.array([0.0, 0.12, 0.1])
-    hand = np.where(t[:, None] < 2.0, start + u * (handle[0] - start) + bow, handle)
-    w = _ease((t - 5.0) / 1.5)[:, None]
-    away = handle[-1] + w * np.array([-0.3, 0.4, 0.1]) + np.sin(np.pi * w) * np.array([0.1, 0.0, 0.1])
-    hand = np.where(t[:, None] >= 5.0, away, hand)
+    hand = _hand_path(
+        t,
+        handle,
+        start=start,
+        reach_s=(0.0, 2.0),
+        reach_bow=np.array([0.0, 0.12, 0.1]),
+        withdraw_s=(5.0, 6.5),
+        away=np.array([-0.3, 0.4, 0.1]),
+        away_bow=np.array([0.1, 0.0, 0.1]),
+    )
     markers = {**door, "marker_2": hand}
     return {n: (t, p + rng.normal(0.0, 0.0005, p.shape)) for n, p in markers.items()}
 
@@ -318,11 +343,15 @@ def test_an_unnamed_hand_that_withdraws_soon_after_a_drawer_stops_is_dropped(hz:
     body = HINGE + np.column_stack([np.zeros_like(t), -slide, np.zeros_like(t)])
     handle = body + np.array([0.0, -0.05, 0.04])
     start = handle[0] + np.array([-0.35, -0.2, -0.25])
-    u = _ease((t - 0.8) / 1.8)[:, None]
-    reach = start + u * (handle[0] - start) + np.sin(np.pi * u) * np.array([0.0, 0.1, 0.12])
-    hand = np.where(t[:, None] < 2.6, reach, handle)
-    w = _ease((t - 4.2) / 0.8)[:, None]
-    hand = np.where(t[:, None] >= 4.2, handle[-1] + w * np.array([-0.3, -0.1, 0.2]), hand)
+    hand = _hand_path(
+        t,
+        handle,
+        start=start,
+        reach_s=(0.8, 2.6),
+        reach_bow=np.array([0.0, 0.1, 0.12]),
+        withdraw_s=(4.2, 5.0),
+        away=np.array([-0.3, -0.1, 0.2]),
+    )
     rng = RNG(1)
     markers = {
         "marker_24": (t, hand + rng.normal(0.0, 0.002, hand.shape)),
@@ -346,11 +375,15 @@ def test_a_hand_withdrawing_right_after_a_noisy_door_closes_is_dropped(hz: float
     door = _door_point(angle, 0.55)
     handle = _door_point(angle, 0.55) + np.array([0.0, 0.0, 0.04])
     start = handle[0] + np.array([-0.4, -0.3, -0.2])
-    u = _ease((t - 0.2) / 1.1)[:, None]
-    reach = start + u * (handle[0] - start) + np.sin(np.pi * u) * np.array([0.0, 0.12, 0.1])
-    hand = np.where(t[:, None] < 1.3, reach, handle)
-    w = _ease((t - 6.3) / 1.2)[:, None]
-    hand = np.where(t[:, None] >= 6.3, handle[-1] + w * np.array([-0.1, -0.2, 0.05]), hand)
+    hand = _hand_path(
+        t,
+        handle,
+        start=start,
+        reach_s=(0.2, 1.3),
+        reach_bow=np.array([0.0, 0.12, 0.1]),
+        withdraw_s=(6.3, 7.5),
+        away=np.array([-0.1, -0.2, 0.05]),
+    )
     rng = RNG(4)
     quats = Rotation.from_rotvec(np.outer(angle, [0.0, 0.0, 1.0])).as_quat()
     pose = PoseTrack("Body 3", "markers", _stamps(t), door + rng.normal(0.0, 0.015, door.shape), quats)
