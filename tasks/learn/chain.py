@@ -25,7 +25,7 @@ from tasks.fit.noise import MAD_TO_SIGMA
 from tasks.fit.rigid import PartMotion, ScrewAxis, part_motion, rss_about_axis, screw_axis
 from tasks.fit.rotation import RotationFit, angles_about, fit_rotation
 from tasks.fit.select import KINDS, Kind, SelectParams, choose_bic, choose_eigen, model_costs
-from tasks.fit.translation import TranslationFit, fit_translation
+from tasks.fit.translation import TranslationFit, fit_translation, travels_agree
 from tasks.learn.params import LearnParams
 from tasks.learn.prepare import MIN_SAMPLES, PreparedRecording, is_orientation_marker
 from tasks.segment.changepoint import MIN_MODEL_SAMPLES
@@ -152,6 +152,8 @@ def fit_span(
     )[0]
     if max(rf.radii, default=0.0) < MIN_RADIUS_SIGMAS * sigma:
         costs[KINDS.index("rotation")] = np.inf
+    if len(group) > 1 and not _travels_agree(group, t0, t1, tf.dir):
+        costs[KINDS.index("translation")] = np.inf
     angle = swept_angle(pts, rf)
     if motion is not None:
         costs += evidence * orientation_costs(motion, rf.dir, sigma, params.undefined_nats)
@@ -193,6 +195,13 @@ def swept_angle(pts: list[Points], rf: RotationFit) -> float:
         lo, hi = np.percentile(ang, [SWEPT_PERCENTILE, 100.0 - SWEPT_PERCENTILE])
         out = max(out, float(hi - lo), abs(float(ang[-1] - ang[0])))
     return out
+
+
+def _travels_agree(group: list[Track], t0: float, t1: float, direction: FloatArray) -> bool:
+    """Whether the group's markers travel equal distances along ``direction`` over [t0, t1) (s), as one sliding
+    part's do (``tasks.fit.translation.travels_agree``)."""
+    spans = [_samples(tr, t0, t1) for tr in group]
+    return travels_agree([t for t, _ in spans], [p @ direction for _, p in spans])
 
 
 def _evidence_per_sample(group: list[Track], t0: float, t1: float) -> float:
@@ -256,14 +265,32 @@ def _fit_rms(f: SegmentFit) -> float:
     return fit.rms_m if fit is not None else 0.0
 
 
+def _residual_sigma(parts: list[SegmentFit]) -> float:
+    """Per-axis scatter (m) of the pieces' samples about their own fits: their residual sum of squares over its
+    degrees of freedom (two residual axes per sample, less each fit's parameters: direction 2, axis point 2 or the
+    line's offset 2 per marker, and a circle's radius and height per marker); inf without a fitted piece."""
+    rss = dof = 0.0
+    for f in parts:
+        fit = f.rotation if f.kind == "rotation" else f.translation if f.kind == "translation" else None
+        if fit is None:
+            continue
+        m = max(len(f.markers), 1)
+        rss += fit.rss
+        dof += max(2.0 * fit.n - (4.0 + 2.0 * m if f.kind == "rotation" else 2.0 + 2.0 * m), 1.0)
+    return float(np.sqrt(rss / dof)) if dof else float("inf")
+
+
 def merge_tolerance(
     prep: PreparedRecording, union: SegmentFit, parts: list[SegmentFit], mechanism_rms_m: float
 ) -> float:
     """Largest rms (m) of one primitive's fit over a union of segments: the mechanism's own departure from an ideal
     line or circle (at most ``mechanism_rms_m``, and at most ``PIECE_RMS_FACTOR`` times the pieces' own), combined
-    with the markers' sensor noise (camera tracks scatter by centimetres)."""
+    with the markers' noise (camera tracks scatter by centimetres): the sensor noise from the data, or the pieces'
+    own scatter about their fits where that is less (the high-frequency estimate also counts timing jitter and
+    fast wobble, which a fit's residual does not)."""
     by_name = {tr.name: tr for tr in prep.tracks}
-    noise = max((by_name[n].sigma_hf_m for n in union.markers if n in by_name), default=0.0)
+    sensor = max((by_name[n].sigma_hf_m for n in union.markers if n in by_name), default=0.0)
+    noise = min(sensor, _residual_sigma(parts))
     mechanism = min(mechanism_rms_m, PIECE_RMS_FACTOR * max(_fit_rms(f) for f in parts))
     return float(np.hypot(mechanism, MERGE_NOISE_SIGMAS * np.sqrt(3.0) * noise))
 
@@ -550,9 +577,13 @@ def _small(f: SegmentFit, min_motion_m: float, tracks: dict[str, Track]) -> Segm
 
 
 def primitive_fit_json(f: SegmentFit) -> dict[str, Any]:
-    """The ``fit`` block of a primitive: residual, eigenvalues, model scores, axis uncertainty, and the evidence
-    used (marker positions; a rigid body's orientations too)."""
-    out: dict[str, Any] = {"eigenvalues": list(f.eigenvalues), "scores": f.scores}
+    """The ``fit`` block of a primitive: residual, eigenvalues, model scores (nats; the models the motion rules
+    out, such as a translation whose markers travel unequal distances, are listed under ``ruled_out`` instead),
+    axis uncertainty, and the evidence used (marker positions; a rigid body's orientations too)."""
+    scores = {k: v for k, v in f.scores.items() if np.isfinite(v)}
+    out: dict[str, Any] = {"eigenvalues": list(f.eigenvalues), "scores": scores}
+    if ruled_out := sorted(k for k in f.scores if k not in scores):
+        out["ruled_out"] = ruled_out
     out["evidence"] = ["positions", "orientations"] if any(map(is_orientation_marker, f.markers)) else ["positions"]
     if f.kind == "rotation" and f.rotation is not None:
         rf = f.rotation
