@@ -252,7 +252,8 @@ def _extent(kind: Kind, rf: RotationFit | None, tf: TranslationFit | None) -> fl
 
 
 MERGE_NOISE_SIGMAS = 2.0
-"""A union's fit may exceed the mechanism tolerance by this many times the sensor noise (3-D rms) of its markers."""
+"""A union's fit may exceed the mechanism's own departure from its ideal path by this many times the sensor noise
+(3-D rms) of its markers."""
 PIECE_RMS_FACTOR = 3.0
 """A union's fit may depart from an ideal line or circle at most this many times as far as its pieces' own fits
 do: a wobbling door cut into arcs fits one circle about as well as its arcs; a knob's turn and the door's swing
@@ -283,16 +284,20 @@ def _residual_sigma(parts: list[SegmentFit]) -> float:
 def merge_tolerance(
     prep: PreparedRecording, union: SegmentFit, parts: list[SegmentFit], mechanism_rms_m: float
 ) -> float:
-    """Largest rms (m) of one primitive's fit over a union of segments: the mechanism's own departure from an ideal
-    line or circle (at most ``mechanism_rms_m``, and at most ``PIECE_RMS_FACTOR`` times the pieces' own), combined
-    with the markers' noise (camera tracks scatter by centimetres): the sensor noise from the data, or the pieces'
-    own scatter about their fits where that is less (the high-frequency estimate also counts timing jitter and
-    fast wobble, which a fit's residual does not)."""
+    """Largest rms (m) of one primitive's fit over a union of segments: ``PIECE_RMS_FACTOR`` times the pieces' own
+    scatter about their fits (their largest rms, or their per-axis residual per degree of freedom as 3-D rms where
+    short pieces absorb their noise), and never more than the mechanism's own departure from an ideal line or
+    circle (``mechanism_rms_m``) combined with the markers' noise (camera tracks scatter by centimetres). The
+    pieces' scatter already holds the sensor noise, so it is not added to it again. The noise is the sensor's
+    from the data, or the pieces' residual scatter where that is less (the high-frequency estimate also counts
+    timing jitter and depth noise along the path, which a fit's residual does not)."""
     by_name = {tr.name: tr for tr in prep.tracks}
     sensor = max((by_name[n].sigma_hf_m for n in union.markers if n in by_name), default=0.0)
-    noise = min(sensor, _residual_sigma(parts))
-    mechanism = min(mechanism_rms_m, PIECE_RMS_FACTOR * max(_fit_rms(f) for f in parts))
-    return float(np.hypot(mechanism, MERGE_NOISE_SIGMAS * np.sqrt(3.0) * noise))
+    residual = _residual_sigma(parts)
+    spread = np.sqrt(2.0) * residual if np.isfinite(residual) else 0.0
+    scatter = max(*(_fit_rms(f) for f in parts), spread)
+    ceiling = np.hypot(mechanism_rms_m, MERGE_NOISE_SIGMAS * np.sqrt(3.0) * min(sensor, residual))
+    return float(min(PIECE_RMS_FACTOR * scatter, ceiling))
 
 
 def _coordinate(f: SegmentFit, pts: Points) -> FloatArray:
