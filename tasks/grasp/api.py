@@ -7,7 +7,9 @@ pose through the sensor-to-palm offset (``seed.py``). ``plan_on_model`` is the p
    (``planner.SearchSpace``; the annealing's best unique states among them);
 2. each is executed as the robot executes a grasp (``execution.py``) and the grasps are ranked once: force closure
    first, then closeness to the demonstration (``rank``);
-3. in that order, grasps are shaken by the hold check (``hold_check``, on the planner's own object model) within
+3. in that order, grasps that survive the wrist pose error of a robot (``execution.robust``: closed with the palm
+   displaced by millimetres and degrees, the same fingers still reach the part and a force closure stays one) are
+   shaken by the hold check (``hold_check``, on the planner's own object model) within
    one time budget (``PlannerParams.hold_checks`` whole checks of simulated time): the first that holds firmly with
    a force closure, static or once the fingers have squeezed it, is the plan (``choose``).
 
@@ -33,7 +35,7 @@ from schemas.descriptor import Grasp
 from tasks.arrays import FloatArray, Points, Vector3
 from tasks.errors import GraspError
 from tasks.grasp.candidate_grasp import grasp_from_candidate
-from tasks.grasp.execution import GraspCandidate, execute_states
+from tasks.grasp.execution import GraspCandidate, execute_states, robust
 from tasks.grasp.generators import GENERATORS
 from tasks.grasp.hold_check import CHECK_LENGTH_S, CHECK_SHIFT_M, CHECK_TURN_TOL_RAD, hold_check
 from tasks.grasp.object_model import ObjectModel, build_object_model, check_object_points, crop_points
@@ -93,8 +95,9 @@ def _squeezed(result: ShakeResult, model: ObjectModel, mu: float) -> GraspQualit
 
 
 def choose(model: ObjectModel, ranked: list[GraspCandidate], params: PlannerParams) -> GraspCandidate:
-    """The first of ``ranked`` that holds firmly (``FIRM``) under ``hold_check`` with a force closure at
-    ``params.mu``, static or squeezed (then with the squeezed quality), while the budget lasts (a check starts
+    """The first of ``ranked`` that survives the wrist error (``execution.robust``) and holds firmly (``FIRM``) under
+    ``hold_check`` with a force closure at ``params.mu``, static or squeezed (then with the squeezed quality), while
+    the budget lasts (a check starts
     only while a whole one fits in the simulated time left); else the first that held loosely; else the first that
     held with a squeezed force closure at ``HELD_MU``; else the checked force closure that lasted longest; else the
     first force closure; else the first."""
@@ -105,6 +108,8 @@ def choose(model: ObjectModel, ranked: list[GraspCandidate], params: PlannerPara
     for cand in ranked:
         if left < CHECK_LENGTH_S:
             break
+        if not robust(model, cand, params.mu):
+            continue  # a grasp that only holds at the exact planned pose is not a grasp
         result = shake_test(model, grasp_from_candidate(cand), hold_check(cand.quat_xyzw))
         left -= result.survived_s
         quality = cand.quality if cand.quality.force_closure else _squeezed(result, model, params.mu)

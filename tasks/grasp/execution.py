@@ -29,6 +29,10 @@ BACK_OFF_M = 0.02
 BACK_OFF_STEP_M = 0.004
 """A pre-grasp in collision is moved back along its approach by up to 20 mm, in 4 mm steps (the scan's noise and
 the hand's width)."""
+WRIST_ERROR_M = 0.003
+WRIST_ERROR_RAD = math.radians(2.0)
+"""Wrist pose error a grasp must survive: an arm's inverse kinematics places the palm within 3 mm and 2° of the
+plan, and a transferred object frame adds its axis uncertainty of a millimetre and a fraction of a degree."""
 
 
 @dataclass(frozen=True)
@@ -45,7 +49,8 @@ class Proposal:
 class GraspCandidate:
     """An executed state: the state x (8,), palm pose (world, after the approach), closed joints (7,) [spread,
     proximal 1-3, distal 1-3] rad, quality, ranking cost ``closeness``, offset (m) from the demonstrated approach
-    and angle (rad) from the demonstrated palm, and the generator that proposed it (``source``)."""
+    and angle (rad) from the demonstrated palm, the generator that proposed it (``source``), and the fingers (0-2)
+    that touch the part (``fingers``)."""
 
     state: FloatArray
     position: Vector3
@@ -56,6 +61,7 @@ class GraspCandidate:
     offset_m: float
     angle_rad: float
     source: str = ""
+    fingers: tuple[int, ...] = ()
 
 
 def closeness(space: SearchSpace, rot: FloatArray, pos: Vector3, params: PlannerParams) -> tuple[float, float, float]:
@@ -88,12 +94,13 @@ def execute_pose(  # noqa: PLR0917 -- pybullet ids, model, pose, spread, params
     spread: float,
     approach_max_m: float,
     mu: float,
-) -> tuple[Vector3, FloatArray, GraspQuality] | None:
+    back_off_m: float = BACK_OFF_M,
+) -> tuple[Vector3, FloatArray, GraspQuality, tuple[int, ...]] | None:
     """Execute one grasp in a pybullet client holding the hand and the (static) object: the palm position after the
-    approach, the closed joints (7,) and the quality of the contacts on the part (not its mount); None when the open
-    hand is in collision even backed off."""
+    approach, the closed joints (7,), the quality of the contacts on the part (not its mount) and the fingers (0-2)
+    touching the part; None when the open hand is in collision even backed off (by at most ``back_off_m``)."""
     quat = Rotation.from_matrix(rot).as_quat()
-    for back in np.arange(0.0, BACK_OFF_M + 1e-9, BACK_OFF_STEP_M):
+    for back in np.arange(0.0, back_off_m + 1e-9, BACK_OFF_STEP_M):
         start = pos - back * rot[:, 2]
         closing.set_pose(client, hand, start, quat)
         dofs = closing.open_free(client, hand, obj, spread, OPEN_MIN_RAD, PREGRASP_TOL_M)
@@ -106,7 +113,9 @@ def execute_pose(  # noqa: PLR0917 -- pybullet ids, model, pose, spread, params
     contacts = closing.contacts_of(client, hand, obj)
     on_part = ~model.is_mount_piece(contacts.pieces)  # a finger pressing the mount holds nothing of the part
     quality = grasp_quality(contacts.positions[on_part], contacts.normals_in[on_part], model.center, model.radius, mu)
-    return final, closed, quality
+    links = contacts.links[on_part]
+    fingers = tuple(f for f, pair in enumerate(barrett.FINGER_LINKS) if np.any(np.isin(links, pair)))
+    return final, closed, quality, fingers
 
 
 def execute_states(
@@ -126,13 +135,48 @@ def execute_states(
             done = execute_pose(client, hand, obj, model, rot, pos, spread, prop.approach_m, params.mu)
             if done is None:
                 continue
-            final, closed, quality = done
+            final, closed, quality, fingers = done
             cost, lateral, angle = closeness(space, rot, final, params)
             quat = Rotation.from_matrix(rot).as_quat()
-            out.append(GraspCandidate(x.copy(), final, quat, closed, quality, cost, lateral, angle, prop.source))
+            out.append(
+                GraspCandidate(x.copy(), final, quat, closed, quality, cost, lateral, angle, prop.source, fingers)
+            )
     finally:
         pb.disconnect(client)
     return distinct(out)
+
+
+def displaced_poses(rot: FloatArray, pos: Vector3) -> list[tuple[FloatArray, Vector3]]:
+    """The palm pose (rotation (3, 3), position (3,) m, world) moved ``WRIST_ERROR_M`` either way along each of
+    its axes and turned ``WRIST_ERROR_RAD`` either way about each (through the palm origin): 12 poses."""
+    out: list[tuple[FloatArray, Vector3]] = []
+    for axis in range(3):
+        for sign in (1.0, -1.0):
+            out.append((rot, np.asarray(pos, dtype=np.float64) + sign * WRIST_ERROR_M * rot[:, axis]))
+            turn = Rotation.from_rotvec(sign * WRIST_ERROR_RAD * rot[:, axis]).as_matrix()
+            out.append((turn @ rot, np.asarray(pos, dtype=np.float64)))
+    return out
+
+
+def robust(model: ObjectModel, cand: GraspCandidate, mu: float) -> bool:
+    """Whether ``cand``'s grasp survives the wrist error: with the palm at each of ``displaced_poses`` instead of
+    the planned pose (neither backed off nor approached: the arm puts the palm where it puts it), the open hand is
+    not inside the object (``PREGRASP_TOL_M``, opened wider as ``execute_pose`` opens it) and, the fingers closed
+    there, every finger that touched the part still touches it and a force closure at ``mu`` stays one."""
+    client = pb.connect(pb.DIRECT)
+    try:
+        obj = load_object(client, model)
+        hand = barrett.load_hand(client)
+        rot = Rotation.from_quat(cand.quat_xyzw).as_matrix()
+        for rot_d, pos_d in displaced_poses(rot, cand.position):
+            done = execute_pose(client, hand, obj, model, rot_d, pos_d, float(cand.closed[0]), 0.0, mu, 0.0)
+            if done is None or not set(cand.fingers) <= set(done[3]):
+                return False
+            if cand.quality.force_closure and not done[2].force_closure:
+                return False
+    finally:
+        pb.disconnect(client)
+    return True
 
 
 def distinct(candidates: list[GraspCandidate]) -> list[GraspCandidate]:
