@@ -35,7 +35,7 @@ from schemas.descriptor import Grasp
 from tasks.arrays import FloatArray, Points, Vector3
 from tasks.errors import GraspError
 from tasks.grasp.candidate_grasp import grasp_from_candidate
-from tasks.grasp.execution import GraspCandidate, execute_states, robust
+from tasks.grasp.execution import GraspCandidate, execute_states, hand_and_object, robust
 from tasks.grasp.generators import GENERATORS
 from tasks.grasp.hold_check import CHECK_LENGTH_S, CHECK_SHIFT_M, CHECK_TURN_TOL_RAD, hold_check
 from tasks.grasp.object_model import ObjectModel, build_object_model, check_object_points, crop_points
@@ -97,33 +97,33 @@ def _squeezed(result: ShakeResult, model: ObjectModel, mu: float) -> GraspQualit
 def choose(model: ObjectModel, ranked: list[GraspCandidate], params: PlannerParams) -> GraspCandidate:
     """The first of ``ranked`` that survives the wrist error (``execution.robust``) and holds firmly (``FIRM``) under
     ``hold_check`` with a force closure at ``params.mu``, static or squeezed (then with the squeezed quality), while
-    the budget lasts (a check starts
-    only while a whole one fits in the simulated time left); else the first that held loosely; else the first that
-    held with a squeezed force closure at ``HELD_MU``; else the checked force closure that lasted longest; else the
-    first force closure; else the first."""
+    the budget lasts (a check starts only while a whole one fits in the simulated time left); else the first that
+    held loosely; else the first that held with a squeezed force closure at ``HELD_MU``; else the checked force
+    closure that lasted longest; else the first force closure; else the first."""
     left = params.hold_checks * CHECK_LENGTH_S
     loose: list[GraspCandidate] = []
     held: list[GraspCandidate] = []
     longest: tuple[float, GraspCandidate] | None = None
-    for cand in ranked:
-        if left < CHECK_LENGTH_S:
-            break
-        if not robust(model, cand, params.mu):
-            continue  # a grasp that only holds at the exact planned pose is not a grasp
-        result = shake_test(model, grasp_from_candidate(cand), hold_check(cand.quat_xyzw))
-        left -= result.survived_s
-        quality = cand.quality if cand.quality.force_closure else _squeezed(result, model, params.mu)
-        if result.holds and quality.force_closure:
-            chosen = dataclasses.replace(cand, quality=quality)
-            if result.max_shift_m <= FIRM * CHECK_SHIFT_M and result.max_turn_rad <= FIRM * CHECK_TURN_TOL_RAD:
-                return chosen
-            loose.append(chosen)
-        elif result.holds:
-            at_held = _squeezed(result, model, HELD_MU)
-            if at_held.force_closure:
-                held.append(dataclasses.replace(cand, quality=at_held))
-        if cand.quality.force_closure and (longest is None or result.survived_s > longest[0]):
-            longest = (result.survived_s, cand)
+    with hand_and_object(model) as ids:
+        for cand in ranked:
+            if left < CHECK_LENGTH_S:
+                break
+            if not robust(ids, model, cand, params.mu):
+                continue  # a grasp that only holds at the exact planned pose is not a grasp
+            result = shake_test(model, grasp_from_candidate(cand), hold_check(cand.quat_xyzw))
+            left -= result.survived_s
+            quality = cand.quality if cand.quality.force_closure else _squeezed(result, model, params.mu)
+            if result.holds and quality.force_closure:
+                chosen = dataclasses.replace(cand, quality=quality)
+                if result.max_shift_m <= FIRM * CHECK_SHIFT_M and result.max_turn_rad <= FIRM * CHECK_TURN_TOL_RAD:
+                    return chosen
+                loose.append(chosen)
+            elif result.holds:
+                at_held = _squeezed(result, model, HELD_MU)
+                if at_held.force_closure:
+                    held.append(dataclasses.replace(cand, quality=at_held))
+            if cand.quality.force_closure and (longest is None or result.survived_s > longest[0]):
+                longest = (result.survived_s, cand)
     if loose or held:
         return (loose + held)[0]
     if longest is not None:

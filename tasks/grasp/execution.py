@@ -6,6 +6,8 @@ back along the approach while in collision), approached up to 30 mm to contact, 
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
@@ -33,6 +35,9 @@ WRIST_ERROR_M = 0.003
 WRIST_ERROR_RAD = math.radians(2.0)
 """Wrist pose error a grasp must survive: an arm's inverse kinematics places the palm within 3 mm and 2° of the
 plan, and a transferred object frame adds its axis uncertainty of a millimetre and a fraction of a degree."""
+HOLDING_FINGERS = 2
+"""Fingers that must touch the part: a hand holds a part between its fingers; the palm and one finger let it turn
+about that finger when the arm moves it."""
 
 
 @dataclass(frozen=True)
@@ -118,16 +123,24 @@ def execute_pose(  # noqa: PLR0917 -- pybullet ids, model, pose, spread, params
     return final, closed, quality, fingers
 
 
+@contextmanager
+def hand_and_object(model: ObjectModel) -> Iterator[tuple[int, int, int]]:
+    """A pybullet client (DIRECT) holding the object model (static) and the hand: (client, hand, object) ids."""
+    client = pb.connect(pb.DIRECT)
+    try:
+        obj = load_object(client, model)
+        yield client, barrett.load_hand(client), obj
+    finally:
+        pb.disconnect(client)
+
+
 def execute_states(
     model: ObjectModel, space: SearchSpace, proposals: list[Proposal], params: PlannerParams
 ) -> list[GraspCandidate]:
     """Execute each proposal in one pybullet client (``execute_pose``), in order; those in collision are left out,
     and so are those that closed into the grasp of an earlier one (``distinct``)."""
-    client = pb.connect(pb.DIRECT)
-    try:
-        obj = load_object(client, model)
-        hand = barrett.load_hand(client)
-        out: list[GraspCandidate] = []
+    out: list[GraspCandidate] = []
+    with hand_and_object(model) as (client, hand, obj):
         for prop in proposals:
             x = prop.state
             rot, pos = space.pose(x)
@@ -141,8 +154,6 @@ def execute_states(
             out.append(
                 GraspCandidate(x.copy(), final, quat, closed, quality, cost, lateral, angle, prop.source, fingers)
             )
-    finally:
-        pb.disconnect(client)
     return distinct(out)
 
 
@@ -158,24 +169,28 @@ def displaced_poses(rot: FloatArray, pos: Vector3) -> list[tuple[FloatArray, Vec
     return out
 
 
-def robust(model: ObjectModel, cand: GraspCandidate, mu: float) -> bool:
-    """Whether ``cand``'s grasp survives the wrist error: with the palm at each of ``displaced_poses`` instead of
-    the planned pose (neither backed off nor approached: the arm puts the palm where it puts it), the open hand is
-    not inside the object (``PREGRASP_TOL_M``, opened wider as ``execute_pose`` opens it) and, the fingers closed
-    there, every finger that touched the part still touches it and a force closure at ``mu`` stays one."""
-    client = pb.connect(pb.DIRECT)
-    try:
-        obj = load_object(client, model)
-        hand = barrett.load_hand(client)
-        rot = Rotation.from_quat(cand.quat_xyzw).as_matrix()
-        for rot_d, pos_d in displaced_poses(rot, cand.position):
-            done = execute_pose(client, hand, obj, model, rot_d, pos_d, float(cand.closed[0]), 0.0, mu, 0.0)
-            if done is None or not set(cand.fingers) <= set(done[3]):
-                return False
-            if cand.quality.force_closure and not done[2].force_closure:
-                return False
-    finally:
-        pb.disconnect(client)
+def robust(ids: tuple[int, int, int], model: ObjectModel, cand: GraspCandidate, mu: float) -> bool:
+    """Whether ``cand``'s grasp survives the wrist error, tried in the client ``ids`` (``hand_and_object``): with
+    the palm at each of ``displaced_poses`` instead of the planned pose (neither backed off nor approached: the arm
+    puts the palm where it puts it), the open hand is not inside the object (``PREGRASP_TOL_M``, opened wider as
+    ``execute_pose`` opens it) and, the fingers closed there, every finger that touched the part (at least
+    ``HOLDING_FINGERS``) still touches it and a force closure at ``mu`` stays one."""
+    if len(cand.fingers) < HOLDING_FINGERS:
+        return False
+    client, hand, obj = ids
+    spread = float(cand.closed[0])
+    poses = displaced_poses(Rotation.from_quat(cand.quat_xyzw).as_matrix(), cand.position)
+    for rot_d, pos_d in poses:  # the open hand alone first: cheap, and where a pose pressed into the part fails
+        closing.set_pose(client, hand, pos_d, Rotation.from_matrix(rot_d).as_quat())
+        closing.open_free(client, hand, obj, spread, OPEN_MIN_RAD, PREGRASP_TOL_M)
+        if closing.min_distance(client, hand, obj) < -PREGRASP_TOL_M:
+            return False
+    for rot_d, pos_d in poses:
+        done = execute_pose(client, hand, obj, model, rot_d, pos_d, spread, 0.0, mu, 0.0)
+        if done is None or not set(cand.fingers) <= set(done[3]):
+            return False
+        if cand.quality.force_closure and not done[2].force_closure:
+            return False
     return True
 
 
