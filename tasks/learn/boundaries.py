@@ -25,6 +25,8 @@ SMOOTH_S = 0.1
 """Moving-average window (s) of the part's coordinate before the rest test."""
 REST_SIGMAS = 4.0
 """The smoothed coordinate leaves the rest when it is this many of its noise sigmas from the rest level."""
+MIN_REST_SAMPLES = 3
+"""Samples a rest level is the median of: the fewest whose median rejects one outlying sample."""
 
 
 def part_coordinate(f: SegmentFit, tracks: list[Track], grid: FloatArray) -> tuple[FloatArray, float] | None:
@@ -66,25 +68,30 @@ def part_coordinate(f: SegmentFit, tracks: list[Track], grid: FloatArray) -> tup
     return out, noise
 
 
-def smooth(values: FloatArray, width: int) -> FloatArray:
-    """Centred moving average over ``width`` samples ignoring NaNs (NaN where none)."""
+def smooth(t_s: FloatArray, values: FloatArray, window_s: float) -> tuple[FloatArray, FloatArray]:
+    """Centred moving average over ``window_s`` seconds of time, ignoring NaNs, and how many samples each average
+    holds (the average is NaN where none). A window in time, not in samples: across an occlusion gap or uneven
+    sampling it never mixes values seconds apart."""
     ok = np.isfinite(values)
-    kernel = np.ones(max(width, 1))
-    num = np.convolve(np.where(ok, values, 0.0), kernel, mode="same")
-    den = np.convolve(ok.astype(np.float64), kernel, mode="same")
+    sums = np.concatenate([[0.0], np.cumsum(np.where(ok, values, 0.0))])
+    counts = np.concatenate([[0.0], np.cumsum(ok.astype(np.float64))])
+    lo = np.searchsorted(t_s, t_s - window_s / 2, side="left")
+    hi = np.searchsorted(t_s, t_s + window_s / 2, side="right")
+    den = counts[hi] - counts[lo]
     with np.errstate(invalid="ignore", divide="ignore"):
-        out: FloatArray = np.where(den > 0, num / np.where(den > 0, den, 1.0), np.nan)
-    return out
+        out: FloatArray = np.where(den > 0, (sums[hi] - sums[lo]) / np.where(den > 0, den, 1.0), np.nan)
+    return out, den
 
 
-def _departure(t: FloatArray, c: FloatArray, rest: FloatArray, noise: float) -> float | None:
-    """Time (s) nearest the motion where the coordinate is last within ``REST_SIGMAS`` sigmas of the rest level,
-    scanning from the motion (``t`` ordered from the motion outwards, ``rest`` the rest samples' coordinates)."""
+def _departure(t: FloatArray, c: FloatArray, rest: FloatArray, noise: FloatArray) -> float | None:
+    """Time (s) nearest the motion where the coordinate is last within ``REST_SIGMAS`` of its noise sigmas
+    (per sample) of the rest level, scanning from the motion (``t`` ordered from the motion outwards, ``rest``
+    the rest samples' coordinates)."""
     finite = rest[np.isfinite(rest)]
-    if len(finite) < MIN_SAMPLES:
+    if len(finite) < MIN_REST_SAMPLES:
         return None
     level = float(np.median(finite))
-    within = np.abs(c - level) <= max(REST_SIGMAS * noise, 1e-12)
+    within = np.abs(c - level) <= np.maximum(REST_SIGMAS * noise, 1e-12)
     hits = np.flatnonzero(within & np.isfinite(c))
     if not len(hits):
         return None
@@ -108,26 +115,24 @@ def refine_boundaries(prep: PreparedRecording, fits: list[SegmentFit], params: L
         hi = min((w[1] for w in windows[1] if w is not None), default=None)
         start, end = f.t_start, f.t_end
         grid = max(tracks, key=lambda tr: len(tr.t_s)).t_s
-        dt = float(np.median(np.diff(grid))) if len(grid) > 1 else 0.0
         got = part_coordinate(f, tracks, grid)
-        if got is None or dt <= 0:
+        if got is None or len(grid) < 2:
             continue
-        coord, noise = got
-        width = max(1, round(SMOOTH_S / dt))
-        level = smooth(coord, width)
-        noise /= np.sqrt(width)
+        coord, sample_noise = got
+        level, counts = smooth(grid, coord, SMOOTH_S)
+        noise = sample_noise / np.sqrt(np.maximum(counts, 1.0))
         if lo is not None:
             before = (grid >= lo) & (grid < f.t_start)
             rest = level[before][: max(len(level[before]) // 2, 1)]
             t_back = grid[before][::-1]
-            found = _departure(t_back, level[before][::-1], rest, noise)
+            found = _departure(t_back, level[before][::-1], rest, noise[before][::-1])
             start = min(start, found) if found is not None else start
         if hi is not None:
             after = (grid >= f.t_end) & (grid < hi)
             rest = level[after][len(level[after]) // 2 :]
-            found = _departure(grid[after], level[after], rest, noise)
+            found = _departure(grid[after], level[after], rest, noise[after])
             end = max(end, found) if found is not None else end
-        out[i] = replace(f, t_start=float(start), t_end=float(end))
+        out[i] = _widened(prep, f, float(start), float(end), params)
         k = i - 1
         while k >= 0 and out[k].t_end > start:
             out[k] = _cut(prep, out[k], out[k].t_start, max(float(start), out[k].t_start), params)
@@ -137,6 +142,20 @@ def refine_boundaries(prep: PreparedRecording, fits: list[SegmentFit], params: L
             out[k] = _cut(prep, out[k], min(float(end), out[k].t_end), out[k].t_end, params)
             k += 1
     return [f for f in out if f.t_end > f.t_start]
+
+
+def _widened(prep: PreparedRecording, f: SegmentFit, start: float, end: float, params: LearnParams) -> SegmentFit:
+    """Primitive ``f`` over [start, end] (s). When its span grew, the part's path is classified again from the last
+    rest sample before the motion to the first after it (across an occlusion gap, those are all that is seen of
+    the motion's end): a path that this shows to be of the other kind of motion gets that kind's fit; otherwise
+    ``f``'s fit stands, which may hold more evidence than its span (a swing cut at a reversal keeps the fit of
+    the whole to-and-fro)."""
+    if (start, end) == (f.t_start, f.t_end):
+        return f
+    refit = fit_span(prep, start, float(np.nextafter(end, np.inf)), params)
+    if refit.kind in ("rotation", "translation") and refit.kind != f.kind:
+        return replace(refit, t_end=end)
+    return replace(f, t_start=start, t_end=end)
 
 
 def _cut(prep: PreparedRecording, f: SegmentFit, t0: float, t1: float, params: LearnParams) -> SegmentFit:
@@ -177,9 +196,8 @@ def smoothed_coordinate(
     if got is None:
         return None
     coord, noise = got
-    dt = float(np.median(np.diff(grid)))
-    width = max(1, round(SMOOTH_S / dt)) if dt > 0 else 1
-    return grid, smooth(coord, width), noise / float(np.sqrt(width))
+    level, counts = smooth(grid, coord, SMOOTH_S)
+    return grid, level, noise / float(np.sqrt(max(float(np.median(counts)), 1.0)))
 
 
 def trim_to_motion(prep: PreparedRecording, fits: list[SegmentFit]) -> list[SegmentFit]:
