@@ -8,7 +8,7 @@ pose through the sensor-to-palm offset (``seed.py``). ``plan_on_model`` is the p
 2. each is executed as the robot executes a grasp (``execution.py``) and the grasps are ranked once: force closure
    first, then closeness to the demonstration (``rank``);
 3. in that order, grasps that survive the wrist pose error of a robot (``execution.robust``: closed with the palm
-   displaced by millimetres and degrees, the same fingers still reach the part and a force closure stays one) are
+   displaced by millimetres and degrees, the same fingers still reach the part) are
    shaken by the hold check (``hold_check``, on the planner's own object model) within
    one time budget (``PlannerParams.hold_checks`` whole checks of simulated time): the first that holds firmly with
    a force closure, static or once the fingers have squeezed it, is the plan (``choose``).
@@ -90,7 +90,7 @@ def plan_on_model(
 
 def _squeezed(result: ShakeResult, model: ObjectModel, mu: float) -> GraspQuality:
     if result.squeezed_positions is None or result.squeezed_normals is None:
-        return GraspQuality(0.0, False, 0, mu=mu)
+        return GraspQuality(False, 0, mu=mu)
     return grasp_quality(result.squeezed_positions, result.squeezed_normals, model.center, model.radius, mu)
 
 

@@ -174,7 +174,9 @@ def robust(ids: tuple[int, int, int], model: ObjectModel, cand: GraspCandidate, 
     the palm at each of ``displaced_poses`` instead of the planned pose (neither backed off nor approached: the arm
     puts the palm where it puts it), the open hand is not inside the object (``PREGRASP_TOL_M``, opened wider as
     ``execute_pose`` opens it) and, the fingers closed there, every finger that touched the part (at least
-    ``HOLDING_FINGERS``) still touches it and a force closure at ``mu`` stays one."""
+    ``HOLDING_FINGERS``) still touches it. Whether those contacts still make a force closure is not asked: a
+    closure of three point contacts is a kinematic idealisation that a millimetre changes, and the squeezing fingers
+    settle the part into the grasp again (the hold check squeezes); a finger that misses the part does not."""
     if len(cand.fingers) < HOLDING_FINGERS:
         return False
     client, hand, obj = ids
@@ -188,8 +190,6 @@ def robust(ids: tuple[int, int, int], model: ObjectModel, cand: GraspCandidate, 
     for rot_d, pos_d in poses:
         done = execute_pose(client, hand, obj, model, rot_d, pos_d, spread, 0.0, mu, 0.0)
         if done is None or not set(cand.fingers) <= set(done[3]):
-            return False
-        if cand.quality.force_closure and not done[2].force_closure:
             return False
     return True
 

@@ -194,26 +194,28 @@ class BestList:
     def __init__(self, size: int, scale: FloatArray) -> None:
         """Keep ``size`` states; two are the same when no variable differs by ``UNIQUE_FRACTION`` of ``scale``."""
         self.size = size
-        self.scale = scale
-        self.states: list[tuple[float, FloatArray]] = []
+        self.tolerance = UNIQUE_FRACTION * np.asarray(scale, dtype=np.float64)
+        self.energies = np.zeros(0)
+        self.xs = np.zeros((0, len(self.tolerance)))
+
+    @property
+    def states(self) -> list[tuple[float, FloatArray]]:
+        """(energy, state) pairs, lowest energy first."""
+        return [(float(e), x) for e, x in zip(self.energies, self.xs, strict=True)]
 
     def offer(self, x: FloatArray, energy: float) -> None:
         """Keep x if it is among the best and unlike the others (a better twin replaces its worse one)."""
-        if energy >= ILLEGAL_ENERGY:
+        if energy >= ILLEGAL_ENERGY or (len(self.energies) >= self.size and energy >= self.energies[-1]):
             return
-        twin = next((i for i, (_, y) in enumerate(self.states) if self._same(x, y)), None)
-        if twin is not None:
-            if energy >= self.states[twin][0]:
+        twins = np.flatnonzero(np.all(np.abs(self.xs - x) < self.tolerance, axis=1))
+        if len(twins):
+            if energy >= self.energies[twins[0]]:
                 return
-            del self.states[twin]
-        if len(self.states) >= self.size and energy >= self.states[-1][0]:
-            return
-        self.states.append((energy, x.copy()))
-        self.states.sort(key=lambda s: s[0])
-        del self.states[self.size :]
-
-    def _same(self, x: FloatArray, y: FloatArray) -> bool:
-        return bool(np.all(np.abs(x - y) < UNIQUE_FRACTION * self.scale))
+            self.energies = np.delete(self.energies, twins[0])
+            self.xs = np.delete(self.xs, twins[0], axis=0)
+        at = int(np.searchsorted(self.energies, energy, side="right"))
+        self.energies = np.insert(self.energies, at, energy)[: self.size]
+        self.xs = np.insert(self.xs, at, x, axis=0)[: self.size]
 
 
 def anneal(  # noqa: PLR0917 -- the annealing inputs, named at call sites
