@@ -90,7 +90,7 @@ def plan_on_model(
 
 def _squeezed(result: ShakeResult, model: ObjectModel, mu: float) -> GraspQuality:
     if result.squeezed_positions is None or result.squeezed_normals is None:
-        return GraspQuality(False, 0, mu=mu)
+        return GraspQuality(0, mu=mu)
     return grasp_quality(result.squeezed_positions, result.squeezed_normals, model.center, model.radius, mu)
 
 

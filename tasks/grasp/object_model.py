@@ -448,7 +448,6 @@ def load_object(client_id: int, model: ObjectModel, *, mass_kg: float = 0.0, fri
             shapes.append(
                 pb.createCollisionShape(pb.GEOM_MESH, vertices=(part - c).tolist(), physicsClientId=client_id)
             )
-        base_pos = model.center
         n = len(shapes)
         body = int(
             pb.createMultiBody(
@@ -468,7 +467,6 @@ def load_object(client_id: int, model: ObjectModel, *, mass_kg: float = 0.0, fri
                 physicsClientId=client_id,
             )
         )
-        del base_pos
     for link in range(-1, pb.getNumJoints(body, physicsClientId=client_id)):
         pb.changeDynamics(body, link, lateralFriction=friction, physicsClientId=client_id)
     return body

@@ -32,15 +32,19 @@ DEFAULT_MU = 0.5
 
 @dataclass(frozen=True)
 class GraspQuality:
-    """Force closure, the number of contacts used and their (8 m, 6) edge wrenches; ``epsilon`` (L1 GWS, unitless;
-    0 without force closure) and ``volume`` (6-D, unitless; 0 when the GWS is flat) from qhull's hull on first use;
-    ``mu`` the friction coefficient they were computed with."""
+    """The number of contacts used and their (8 m, 6) edge wrenches, ``mu`` the friction coefficient they were
+    computed with; ``force_closure`` (``_origin_inside``), ``epsilon`` (L1 GWS, unitless; 0 without force closure)
+    and ``volume`` (6-D, unitless; 0 when the GWS is flat) on first use."""
 
-    force_closure: bool
     contacts: int
     wrenches: FloatArray = field(default_factory=lambda: np.zeros((0, 6)), repr=False, compare=False)
     mu: float = DEFAULT_MU
     """The friction coefficient of the contacts' cones."""
+
+    @cached_property
+    def force_closure(self) -> bool:
+        """Whether the origin lies inside the grasp wrench space."""
+        return _origin_inside(self.wrenches)
 
     @cached_property
     def _hull(self) -> ConvexHull | None:
@@ -85,11 +89,10 @@ def contact_wrenches(positions: Points, normals_in: Points, center: Vector3, rad
 def grasp_quality(
     positions: Points, normals_in: Points, center: Vector3, radius: float, mu: float = DEFAULT_MU
 ) -> GraspQuality:
-    """Force closure of the contacts, their count and edge wrenches (see the module docstring)."""
+    """The quality of the contacts (see the module docstring), each measure computed on first use."""
     if len(positions) == 0:
-        return GraspQuality(False, 0, mu=mu)
-    wrenches = contact_wrenches(positions, normals_in, center, radius, mu)
-    return GraspQuality(_origin_inside(wrenches), len(positions), wrenches, mu=mu)
+        return GraspQuality(0, mu=mu)
+    return GraspQuality(len(positions), contact_wrenches(positions, normals_in, center, radius, mu), mu=mu)
 
 
 def _origin_inside(wrenches: FloatArray) -> bool:
