@@ -118,7 +118,8 @@ def fit_span(
         who = bounded([tr.name for tr in moving])
         return SegmentFit("undefined", t0, t1, still_markers=still, note=f"{HAND_ONLY} ({who})")
     group.sort(key=lambda tr: tr.name)
-    pts = [_samples(tr, t0, t1)[1] for tr in group]
+    samples = [_samples(tr, t0, t1) for tr in group]
+    pts = [p for _, p in samples]
     names: tuple[str, ...] = tuple(tr.name for tr in group)
     sel = SelectParams(params.undefined_nats, params.min_rotation_rad)
 
@@ -152,8 +153,8 @@ def fit_span(
     )[0]
     if max(rf.radii, default=0.0) < MIN_RADIUS_SIGMAS * sigma:
         costs[KINDS.index("rotation")] = np.inf
-    if len(group) > 1 and not _travels_agree(group, t0, t1, tf.dir):
-        costs[KINDS.index("translation")] = np.inf
+    if len(group) > 1 and not travels_agree([t for t, _ in samples], [p @ tf.dir for p in pts]):
+        costs[KINDS.index("translation")] = np.inf  # a sliding part moves all its markers alike
     angle = swept_angle(pts, rf)
     if motion is not None:
         costs += evidence * orientation_costs(motion, rf.dir, sigma, params.undefined_nats)
@@ -195,13 +196,6 @@ def swept_angle(pts: list[Points], rf: RotationFit) -> float:
         lo, hi = np.percentile(ang, [SWEPT_PERCENTILE, 100.0 - SWEPT_PERCENTILE])
         out = max(out, float(hi - lo), abs(float(ang[-1] - ang[0])))
     return out
-
-
-def _travels_agree(group: list[Track], t0: float, t1: float, direction: FloatArray) -> bool:
-    """Whether the group's markers travel equal distances along ``direction`` over [t0, t1) (s), as one sliding
-    part's do (``tasks.fit.translation.travels_agree``)."""
-    spans = [_samples(tr, t0, t1) for tr in group]
-    return travels_agree([t for t, _ in spans], [p @ direction for _, p in spans])
 
 
 def _evidence_per_sample(group: list[Track], t0: float, t1: float) -> float:
@@ -260,9 +254,14 @@ do: a wobbling door cut into arcs fits one circle about as well as its arcs; a k
 after it, each fitted to a fraction of a millimetre, do not fit one circle within centimetres."""
 
 
+def _own_fit(f: SegmentFit) -> RotationFit | TranslationFit | None:
+    """The fit of the kind a segment is (None for still and undefined)."""
+    return f.rotation if f.kind == "rotation" else f.translation if f.kind == "translation" else None
+
+
 def _fit_rms(f: SegmentFit) -> float:
     """RMS residual (m) of a primitive's own fit (0 for other kinds)."""
-    fit = f.rotation if f.kind == "rotation" else f.translation if f.kind == "translation" else None
+    fit = _own_fit(f)
     return fit.rms_m if fit is not None else 0.0
 
 
@@ -272,7 +271,7 @@ def _residual_sigma(parts: list[SegmentFit]) -> float:
     line's offset 2 per marker, and a circle's radius and height per marker); inf without a fitted piece."""
     rss = dof = 0.0
     for f in parts:
-        fit = f.rotation if f.kind == "rotation" else f.translation if f.kind == "translation" else None
+        fit = _own_fit(f)
         if fit is None:
             continue
         m = max(len(f.markers), 1)
