@@ -51,13 +51,29 @@ def _lag(n: int, t_s: FloatArray | None) -> tuple[int, float]:
     return lag, lag * dt
 
 
-def _differences(points: Points, lag: int) -> FloatArray:
-    """(n - 4 lag, 3) fourth differences (m)."""
+def _differences(points: Points, lag: int, t_s: FloatArray | None = None) -> FloatArray:
+    """(n - 4 lag, 3) fourth differences (m). With sample times, each is the divided difference of its five
+    samples scaled to the uniform weights' noise gain: it cancels cubic motion at jittered or uneven times too,
+    where fixed weights turn the motion between unevenly spaced samples into noise. Windows with repeated times
+    are left out."""
     n = len(points) - lag * (len(DIFFERENCE) - 1)
-    out = np.zeros((max(n, 0), 3))
-    for k, w in enumerate(DIFFERENCE):
-        out += w * points[k * lag : k * lag + n]
-    return out
+    if n <= 0:
+        return np.zeros((0, points.shape[1]))
+    if t_s is None:
+        out = np.zeros((n, points.shape[1]))
+        for k, w in enumerate(DIFFERENCE):
+            out += w * points[k * lag : k * lag + n]
+        return out
+    m = len(DIFFERENCE)
+    tw = np.stack([t_s[k * lag : k * lag + n] for k in range(m)], axis=1)  # (n, 5)
+    gaps = tw[:, :, None] - tw[:, None, :]
+    gaps[:, np.arange(m), np.arange(m)] = 1.0
+    ok = np.all(gaps != 0.0, axis=(1, 2))
+    w = 1.0 / np.prod(gaps[ok], axis=2)  # divided-difference weights
+    w *= np.sqrt(float((DIFFERENCE**2).sum()) / (w**2).sum(axis=1))[:, None]
+    pw = np.stack([points[k * lag : k * lag + n][ok] for k in range(m)], axis=1)  # (n_ok, 5, 3)
+    result: FloatArray = np.einsum("nk,nkd->nd", w, pw)
+    return result
 
 
 def robust_variance(d: FloatArray) -> FloatArray:
@@ -67,20 +83,18 @@ def robust_variance(d: FloatArray) -> FloatArray:
     return out
 
 
-def _correlation_gain(points: Points, lag: int, lag_s: float, near: FloatArray) -> float:
-    """The fourth difference's variance gain over this track's noise: 70 for white noise, less when the noise is
-    correlated (AR(1) correlation at the lag fitted to the variance ratio between lags 2 L and L; ``near`` are the
-    differences at L)."""
+def _correlation(points: Points, lag: int, lag_s: float, near: FloatArray, t_s: FloatArray | None) -> float:
+    """The noise's correlation between samples ``lag`` apart (AR(1), fitted to the variance ratio of the fourth
+    differences at lags 2 L and L; ``near`` are the differences at L): 0 for white noise."""
     if len(points) < 2 * lag * (len(DIFFERENCE) - 1) + 3:
-        return 70.0
+        return 0.0
     var_near = float(robust_variance(near).sum())
-    var_far = float(robust_variance(_differences(points, 2 * lag)).sum())
+    var_far = float(robust_variance(_differences(points, 2 * lag, t_s)).sum())
     if var_near <= 0.0 or var_far <= var_near:
-        return 70.0
+        return 0.0
     rs = np.linspace(0.0, np.exp(-lag_s / MAX_CORRELATION_S), 256)
     ratio = _gain(rs**2) / _gain(rs)
-    r = float(rs[min(int(np.searchsorted(ratio, var_far / var_near)), len(rs) - 1)])
-    return float(_gain(r))
+    return float(rs[min(int(np.searchsorted(ratio, var_far / var_near)), len(rs) - 1)])
 
 
 def noise_estimate(points: Points, t_s: FloatArray | None = None) -> tuple[float, FloatArray]:
@@ -95,21 +109,45 @@ def noise_estimate(points: Points, t_s: FloatArray | None = None) -> tuple[float
     (scikit-learn's MinCovDet estimates the same robustly but costs far more per marker:
     ``bench/noise_estimate.py``.)
     """
+    sigma, cov, _ = noise_model(points, t_s)
+    return sigma, cov
+
+
+def noise_model(points: Points, t_s: FloatArray | None = None) -> tuple[float, FloatArray, float]:
+    """``noise_estimate``'s sigma (m) and covariance (m^2) of an (n, d) track, and the noise's correlation time (s;
+    0 for white noise or without times): samples closer than that are not independent draws of it."""
+    d_axes = points.shape[1]
     if len(points) < len(DIFFERENCE):
-        return 0.0, np.zeros((3, 3))
+        return 0.0, np.zeros((d_axes, d_axes)), 0.0
     lag, lag_s = _lag(len(points), t_s)
-    d = _differences(points, lag)
-    gain = _correlation_gain(points, lag, lag_s, d)
-    sigma = float(np.sqrt(float(np.mean(robust_variance(d))) / gain))
+    d = _differences(points, lag, t_s)
+    r = _correlation(points, lag, lag_s, d, t_s)
+    tau = -lag_s / float(np.log(r)) if r > 0.0 and t_s is not None else 0.0
+    gain = float(_gain(r))
+    sigma = float(np.sqrt(float(np.mean(robust_variance(d))) / gain)) if len(d) else 0.0
     if len(d) < MIN_COVARIANCE_ROWS:
-        return sigma, np.eye(3) * sigma**2
+        return sigma, np.eye(d_axes) * sigma**2, tau
     d = d - np.median(d, axis=0)
     norms = np.linalg.norm(d, axis=1)
     core = d[norms <= np.percentile(norms, 90.0)]
-    _, axes = np.linalg.eigh(core.T @ core if len(core) >= 3 else d.T @ d)
+    _, axes = np.linalg.eigh(core.T @ core if len(core) >= d_axes else d.T @ d)
     var = robust_variance(d @ axes) / gain
     cov: FloatArray = (axes * var) @ axes.T
-    return sigma, cov
+    return sigma, cov, tau
+
+
+def series_noise(values: FloatArray, t_s: FloatArray) -> tuple[float, float]:
+    """Noise standard deviation (its units) of a 1-D series at times ``t_s`` (s) and the noise's correlation
+    time (s; 0 for white noise), as ``noise_model`` estimates them; (0, 0) under 5 samples."""
+    sigma, _, tau = noise_model(np.asarray(values, dtype=np.float64)[:, None], t_s)
+    return sigma, tau
+
+
+def independent_samples(n: float, dt_s: float, tau_s: float) -> float:
+    """How many independent draws ``n`` samples ``dt_s`` (s) apart hold of noise correlated over ``tau_s`` (s;
+    AR(1): n (1 - rho) / (1 + rho), rho = exp(-dt / tau)), at least one."""
+    rho = float(np.exp(-dt_s / tau_s)) if tau_s > 0.0 and dt_s > 0.0 else 0.0
+    return max(n * (1.0 - rho) / (1.0 + rho), 1.0)
 
 
 def noise_covariance(points: Points, t_s: FloatArray | None = None) -> FloatArray:

@@ -17,6 +17,7 @@ from scipy.spatial.transform import Rotation
 
 from tasks.arrays import FloatArray, Points, Vector3
 from tasks.fit.geometry import perpendicular_basis, unit
+from tasks.fit.noise import noise_sigma
 
 MIN_MARKERS = 3
 """Markers needed to fix an orientation."""
@@ -136,7 +137,8 @@ class ScrewAxis:
 def screw_axis(motion: PartMotion) -> ScrewAxis | None:
     """The screw axis of the part's motion (orientations for the direction, the centroids' motion for the
     point), or None when its net turn is under ``MIN_TURN_RAD`` or ``TURN_SIGMAS`` noise sigmas. The direction's
-    std comes from the Kabsch residual's noise and each sample's turn information across the axis."""
+    std comes from the Kabsch residual's noise, each sample's turn information across the axis, and the error of
+    the reference configuration every turn is measured from."""
     turns = np.linalg.norm(motion.rotvecs, axis=1)
     moving = turns > 0.5 * float(turns.max())
     dof = max(3 * len(motion.reference) - 6, 1)
@@ -144,7 +146,10 @@ def screw_axis(motion: PartMotion) -> ScrewAxis | None:
     ref = motion.reference
     info_ref = (ref**2).sum() * np.eye(3) - ref.T @ ref  # Kabsch turn information, m^2 per sigma^2
     noise_rad = float(np.sqrt(sigma2 / max(float(np.linalg.eigvalsh(info_ref)[0]), 1e-12)))
-    threshold = max(MIN_TURN_RAD, TURN_SIGMAS * noise_rad / np.sqrt(REFERENCE_SAMPLES))
+    # a rigid body's pose stream turns all its points together: its orientation noise leaves no Kabsch residual,
+    # so the turn's own scatter from sample to sample bounds the noise from below
+    seen_rad = noise_sigma(motion.rotvecs, motion.t_s)
+    threshold = max(MIN_TURN_RAD, TURN_SIGMAS * max(noise_rad, seen_rad) / np.sqrt(REFERENCE_SAMPLES))
     if float(np.linalg.norm(net_turn(motion))) < threshold or moving.sum() < 2:
         return None
     scatter = motion.rotvecs[moving].T @ motion.rotvecs[moving]
@@ -159,6 +164,7 @@ def screw_axis(motion: PartMotion) -> ScrewAxis | None:
     plane = np.column_stack([e1, e2])
     tilt_cov = np.zeros((2, 2))
     turn_sq = 0.0
+    turn_sum = 0.0
     for g in np.flatnonzero(moving):
         rot = Rotation.from_rotvec(motion.rotvecs[g]).as_matrix()
         b = motion.centroids[g] - rot @ c0
@@ -169,7 +175,15 @@ def screw_axis(motion: PartMotion) -> ScrewAxis | None:
         theta = float(np.dot(motion.rotvecs[g], d))
         tilt_cov += theta**2 * np.linalg.pinv(plane.T @ info @ plane)
         turn_sq += theta**2
+        turn_sum += abs(theta)
     a = np.concatenate([*rows, d[None, :]])
     sol, *_ = np.linalg.lstsq(a, np.concatenate([*rhs, [float(np.dot(c0, d))]]), rcond=None)
-    dir_std = float(np.sqrt(sigma2 * np.trace(tilt_cov))) / max(turn_sq, 1e-12)
+    # the reference configuration's own error turns every sample's rotation alike: a bias b across the axis tilts
+    # the direction by b * sum|theta| / sum theta^2, however many samples follow
+    ref_cov = np.linalg.pinv(plane.T @ info_ref @ plane) / REFERENCE_SAMPLES
+    turn_sq = max(turn_sq, 1e-12)
+    bias_gain = (turn_sum / turn_sq) ** 2
+    dir_var = sigma2 * (np.trace(tilt_cov) / turn_sq**2 + bias_gain * float(np.trace(ref_cov)))
+    seen_var = 2.0 * seen_rad**2 * (1.0 / turn_sq + bias_gain / REFERENCE_SAMPLES)
+    dir_std = float(np.sqrt(max(dir_var, seen_var)))
     return ScrewAxis(d, sol, float(np.dot(net_turn(motion), d)), dir_std)

@@ -9,6 +9,7 @@ import numpy as np
 
 from tasks.arrays import FloatArray, Points, Vector3
 from tasks.fit.geometry import net_change, unit
+from tasks.fit.interpolate import bracketed
 
 
 @dataclass(frozen=True)
@@ -58,9 +59,6 @@ its play as it moves shifts one marker's travel against another's by a few perce
 or near the part changes them by the ratio of their radii."""
 TRAVEL_SIGMAS = 4.0
 """Standard errors by which the markers' travel ratio must differ from 1 before the part cannot be translating."""
-MAX_INTERP_GAP_S = 0.1
-"""Longest gap (s) in the reference marker's samples that its position is interpolated across: a hand-driven
-part's speed changes little within 0.1 s."""
 
 
 def travel_ratio(t_ref: FloatArray, u_ref: FloatArray, t: FloatArray, u: FloatArray) -> tuple[float, float] | None:
@@ -71,8 +69,7 @@ def travel_ratio(t_ref: FloatArray, u_ref: FloatArray, t: FloatArray, u: FloatAr
     sensor noise, independent from sample to sample. None without 4 paired samples or with no travel to compare."""
     if len(t_ref) < 2 or len(t) < 4:
         return None
-    k = np.clip(np.searchsorted(t_ref, t), 1, len(t_ref) - 1)
-    paired = (t >= t_ref[0]) & (t <= t_ref[-1]) & (t_ref[k] - t_ref[k - 1] <= MAX_INTERP_GAP_S)
+    paired = bracketed(t_ref, t)
     if paired.sum() < 4:
         return None
     xy = np.column_stack([np.interp(t[paired], t_ref, u_ref), u[paired]])

@@ -16,6 +16,7 @@ import numpy as np
 
 from tasks.arrays import FloatArray
 from tasks.fit.geometry import perpendicular_basis
+from tasks.fit.noise import independent_samples, series_noise
 from tasks.learn.chain import SegmentFit, fit_span, rest_window
 from tasks.learn.params import LearnParams
 from tasks.learn.prepare import MIN_SAMPLES, PreparedRecording
@@ -197,7 +198,18 @@ def smoothed_coordinate(
         return None
     coord, noise = got
     level, counts = smooth(grid, coord, SMOOTH_S)
-    return grid, level, noise / float(np.sqrt(max(float(np.median(counts)), 1.0)))
+    return grid, level, level_noise(grid, coord, noise, float(np.median(counts)))
+
+
+def level_noise(t_s: FloatArray, coord: FloatArray, noise: float, count: float) -> float:
+    """Noise sigma of a moving average of ``count`` samples of the coordinate ``coord`` (at times ``t_s``, s;
+    NaN where unseen) whose per-sample sigma the markers' noise gives as ``noise``: or, when larger, as the series
+    itself shows it along the coordinate, where the noise may be anisotropic (a camera's depth) and correlated over
+    tens of milliseconds (an AR(1) process averages down only by the samples a correlation time apart)."""
+    ok = np.isfinite(coord)
+    own, tau = series_noise(coord[ok], t_s[ok])
+    dt = float(np.median(np.diff(t_s[ok]))) if ok.sum() > 1 else 0.0
+    return max(noise / float(np.sqrt(max(count, 1.0))), own / float(np.sqrt(independent_samples(count, dt, tau))))
 
 
 def trim_to_motion(prep: PreparedRecording, fits: list[SegmentFit]) -> list[SegmentFit]:

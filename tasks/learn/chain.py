@@ -19,12 +19,13 @@ from scipy.spatial.transform import Rotation
 
 from tasks.arrays import FloatArray, Points
 from tasks.errors import bounded
-from tasks.fit.geometry import perpendicular_basis, unit
+from tasks.fit.geometry import angle_between_axes, perpendicular_basis, unit
+from tasks.fit.interpolate import bracketed, positions_at
 from tasks.fit.moments import span_residuals
-from tasks.fit.noise import MAD_TO_SIGMA
-from tasks.fit.rigid import PartMotion, ScrewAxis, part_motion, rss_about_axis, screw_axis
+from tasks.fit.noise import MAD_TO_SIGMA, independent_samples
+from tasks.fit.rigid import TURN_SIGMAS, PartMotion, ScrewAxis, part_motion, rss_about_axis, screw_axis
 from tasks.fit.rotation import RotationFit, angles_about, fit_rotation
-from tasks.fit.select import KINDS, Kind, SelectParams, choose_bic, choose_eigen, model_costs
+from tasks.fit.select import KINDS, SIGMA_MIN_M, Kind, SelectParams, choose_bic, choose_eigen, model_costs
 from tasks.fit.translation import TranslationFit, fit_translation, travels_agree
 from tasks.learn.params import LearnParams
 from tasks.learn.prepare import MIN_SAMPLES, PreparedRecording, is_orientation_marker
@@ -58,7 +59,8 @@ def _samples(track: Track, t0: float, t1: float) -> tuple[FloatArray, Points]:
 
 
 def marker_kind(track: Track, t0: float, t1: float, undefined: float) -> Kind | None:
-    """Best model of one marker's samples over [t0, t1) (s), None with too few samples."""
+    """Best model of one marker's samples over [t0, t1) (s), None with too few samples; still when the marker is
+    not ``displaced`` beyond its noise, whatever model its scatter favours."""
     i, j = span_indices(track, t0, t1)
     if j - i < MIN_MODEL_SAMPLES:
         return None
@@ -74,7 +76,41 @@ def marker_kind(track: Track, t0: float, t1: float, undefined: float) -> Kind | 
         undefined=undefined,
         still_noise=(res.scatter, precision[None], np.array([excess])),
     )
-    return KINDS[int(np.argmin(costs[0]))]
+    kind = KINDS[int(np.argmin(costs[0]))]
+    return "still" if kind != "still" and not displaced(track, t0, t1) else kind
+
+
+SHIFT_SIGMAS = 4.0
+"""A marker is displaced within a span when the mean positions of two of its quarters differ by this many of their
+standard errors (Mahalanobis, under its noise covariance): noise passes 4 sigmas in 3-D once in 500 pairs."""
+SHIFT_PARTS = 4
+"""Parts of a span whose mean positions are compared: a door swung out and back within the span has the same mean
+in its halves, not in its quarters."""
+
+
+def displaced(track: Track, t0: float, t1: float) -> bool:
+    """Whether a marker's position over [t0, t1) (s) changes beyond its noise (``SHIFT_SIGMAS``) between two of the
+    span's ``SHIFT_PARTS`` equal parts of time (a part's mean averages the noise down by its independent samples:
+    fewer than its samples where the noise is correlated); a span with fewer samples than a model needs is not
+    displaced."""
+    i, j = span_indices(track, t0, t1)
+    if j - i < MIN_MODEL_SAMPLES:
+        return False
+    edges = i + np.searchsorted(track.t_s[i:j], np.linspace(t0, t1, SHIFT_PARTS + 1)[1:-1])
+    bounds = [i, *(int(e) for e in edges), j]
+    dt = float(np.median(np.diff(track.t_s[i:j])))
+    means = []
+    weights = []
+    for a, b in itertools.pairwise(bounds):
+        if b > a:
+            means.append(track.points[a:b].mean(axis=0))
+            weights.append(independent_samples(b - a, dt, track.noise_tau_s))
+    precision = np.linalg.pinv(track.noise_cov + np.eye(3) * SIGMA_MIN_M**2)
+    for (ma, wa), (mb, wb) in itertools.combinations(zip(means, weights, strict=True), 2):
+        delta = mb - ma
+        if float(delta @ precision @ delta) / (1.0 / wa + 1.0 / wb) > SHIFT_SIGMAS**2:
+            return True
+    return False
 
 
 def rigid_with(track: Track, ref: Track, t0: float, t1: float, tol: float) -> bool:
@@ -89,9 +125,10 @@ def rigid_with(track: Track, ref: Track, t0: float, t1: float, tol: float) -> bo
 
 
 def distances_to(t_s: FloatArray, pts: Points, ref_t_s: FloatArray, ref_pts: Points) -> FloatArray:
-    """Distances (m) of samples at times ``t_s`` (s) to a reference marker interpolated linearly at those times."""
-    ref_at = np.column_stack([np.interp(t_s, ref_t_s, ref_pts[:, i]) for i in range(3)])
-    out: FloatArray = np.linalg.norm(pts - ref_at, axis=1)
+    """Distances (m) of samples at times ``t_s`` (s) to a reference marker interpolated linearly at those times;
+    samples the reference does not bracket (outside its track, or within an occlusion of it) are left out."""
+    ok = bracketed(ref_t_s, t_s)
+    out: FloatArray = np.linalg.norm(pts[ok] - positions_at(ref_t_s, ref_pts, t_s[ok]), axis=1)
     return out
 
 
@@ -100,6 +137,10 @@ def fit_span(
 ) -> SegmentFit:
     """Classify and fit one time span [t0, t1) (seconds) of the prepared recording."""
     kinds = {tr.name: marker_kind(tr, t0, t1, params.undefined_nats) for tr in prep.tracks}
+    kinds = {
+        tr.name: "still" if kinds[tr.name] not in (None, "still") and not displaced(tr, t0, t1) else kinds[tr.name]
+        for tr in prep.tracks
+    }
     still = frozenset(n for n, k in kinds.items() if k == "still")
     moving = [tr for tr in prep.tracks if kinds[tr.name] not in (None, "still")]
     if force is not None:
@@ -137,9 +178,9 @@ def fit_span(
     motion = _part_motion(group, prep, t0, t1) if params.use_orientations else None
     screw = screw_axis(motion) if motion is not None else None
     rf = fit_rotation(pts, 3.0 * sigma, start=(screw.pos, screw.dir) if screw is not None else None)
-    if screw is not None and np.isfinite(rf.dir_std_rad) and screw.dir_std_rad > 0:
-        rf = _with_screw_direction(pts, rf, screw, 3.0 * sigma)
     evidence = _evidence_per_sample(group, t0, t1)
+    if motion is not None and screw is not None and np.isfinite(rf.dir_std_rad) and screw.dir_std_rad > 0:
+        rf = _best_direction(pts, rf, screw, motion, sigma=sigma, evidence=evidence, undefined=params.undefined_nats)
     n = np.array([float(tf.n) * evidence])
     rss_still = np.array([sum(float(((p - p.mean(axis=0)) ** 2).sum()) for p in pts)]) * evidence
     costs = model_costs(
@@ -158,7 +199,7 @@ def fit_span(
     angle = swept_angle(pts, rf)
     if motion is not None:
         costs += evidence * orientation_costs(motion, rf.dir, sigma, params.undefined_nats)
-    kind = choose_bic(costs, angle, sel, force)
+    kind = choose_bic(costs, angle, sel, force, turned=_seen_turning(screw, angle))
     scores: dict[str, float] = {str(k): float(c) for k, c in zip(KINDS, costs, strict=True)}
     return SegmentFit(kind, t0, t1, names, still, rf, tf, scores, tf.eigenvalues, _extent(kind, rf, tf))
 
@@ -217,6 +258,50 @@ def _with_screw_direction(pts: list[Points], rf: RotationFit, screw: ScrewAxis, 
     direction = unit(w_fit * rf.dir + w_turn * sign * screw.dir)
     out = fit_rotation(pts, loss_scale_m, start=(rf.pos, direction), fixed_dir=True)
     return replace(out, dir_std_rad=float(1.0 / np.sqrt(w_fit + w_turn)))
+
+
+TURN_ARC_RATIO = 2.0
+"""The part's turn and its markers' arc are one rotation when neither exceeds the other by more than this factor."""
+
+
+def _seen_turning(screw: ScrewAxis | None, arc_rad: float) -> bool:
+    """Whether the part's own orientation shows the turn its markers' arc of ``arc_rad`` sweeps: a net turn resolved
+    to ``TURN_SIGMAS`` of its noise (its axis known within 1/``TURN_SIGMAS`` rad) and about as large as the arc."""
+    if screw is None or screw.dir_std_rad * TURN_SIGMAS > 1.0 or arc_rad <= 0.0:
+        return False
+    return 1.0 / TURN_ARC_RATIO <= screw.turn_rad / arc_rad <= TURN_ARC_RATIO
+
+
+def _best_direction(
+    pts: list[Points],
+    rf: RotationFit,
+    screw: ScrewAxis,
+    motion: PartMotion,
+    *,
+    sigma: float,
+    evidence: float,
+    undefined: float,
+) -> RotationFit:
+    """The circle fit's axis and the part's turn axis averaged by their inverse variances when they agree within
+    ``AXES_AGREE_SIGMAS``; else whichever of the two, its circle refitted, explains the markers' positions and the
+    part's orientations at least cost (nats, at noise ``sigma`` m): a short noisy arc's circle fit can land far
+    beyond its linearised uncertainty, and a turn measured from a noisy reference configuration can too."""
+    fused = _with_screw_direction(pts, rf, screw, 3.0 * sigma)
+    apart = angle_between_axes(rf.dir, screw.dir, signed=False)
+    if apart <= AXES_AGREE_SIGMAS * float(np.hypot(rf.dir_std_rad, screw.dir_std_rad)):
+        return fused
+    sign = 1.0 if float(np.dot(rf.dir, screw.dir)) >= 0 else -1.0
+    turn = fit_rotation(pts, 3.0 * sigma, start=(rf.pos, sign * screw.dir), fixed_dir=True)
+    turn = replace(turn, dir_std_rad=screw.dir_std_rad)
+
+    def cost(f: RotationFit) -> float:
+        return evidence * (f.rss / (2.0 * sigma**2) + float(orientation_costs(motion, f.dir, sigma, undefined)[2]))
+
+    return min((rf, turn), key=cost)
+
+
+AXES_AGREE_SIGMAS = 3.0
+"""Two estimates of one axis direction agree when they differ by at most this many of their combined sigmas."""
 
 
 def _part_motion(group: list[Track], prep: PreparedRecording, t0: float, t1: float) -> PartMotion | None:

@@ -5,7 +5,9 @@ part while the part moves, and withdraws while the part rests again; reaching an
 distance to the part (a marker of the part itself, seen to move before another one near the axis at a slow start,
 keeps its distance). A marker of a part that moves first and then rides on another part (a lever pressed before its
 door swings) reaches and rides but never withdraws alone, so it stays an object marker. Names and the wrist pose
-stream are hints used beside this (``tasks.learn.prepare``).
+stream are hints used beside this (``tasks.learn.prepare``). A marker that moves rigidly with a hand marker both
+while it reaches and while it withdraws is on the hand too, though it was not seen riding the part (hidden or
+sparsely sampled while the part moved).
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ import itertools
 import numpy as np
 
 from tasks.arrays import FloatArray
-from tasks.learn.chain import distances_to, marker_kind, rigid_with
+from tasks.learn.chain import displaced, distances_to, marker_kind, rigid_with
 from tasks.learn.params import LearnParams
 from tasks.learn.prepare import ORIENTATION_SEPARATOR, PreparedRecording
 from tasks.segment.tracks import Track, span_indices
@@ -62,10 +64,11 @@ def hand_by_motion(prep: PreparedRecording, spans: list[tuple[float, float]], pa
     moving: dict[str, list[bool]] = {}
     for body, tracks in bodies.items():
         in_span = _moving(tracks, spans, params.undefined_nats)
-        in_window = _moving(tracks, cut, params.undefined_nats)
+        in_window = [any(displaced(tr, a, b) for tr in tracks) for a, b in cut]
         moving[body] = [w and in_span[parent[i]] for i, w in enumerate(in_window)]
     tol = params.rigid_tol_m
     hand: set[str] = set()
+    rode: dict[str, tuple[int, int]] = {}
     for h, o in itertools.permutations(bodies, 2):
         mov_h, mov_o = moving[h], moving[o]
         if not any(mov_o):
@@ -82,6 +85,14 @@ def hand_by_motion(prep: PreparedRecording, spans: list[tuple[float, float]], pa
         ride = any(mov_h[i] and mov_o[i] and _rides(hb, ob, *cut[i], tol) for i in range(first, last + 1))
         if ride:
             hand.update(tr.name for tr in bodies[h])
+            rode[h] = (first, last)
+    for b, (h, (first, last)) in itertools.product(bodies, rode.items()):
+        if b in rode:
+            continue
+        both = [i for i, m in enumerate(moving[b]) if m and moving[h][i]]
+        along = [i for i in both if _rides(bodies[b], bodies[h], *cut[i], tol)]
+        if any(i < first for i in along) and any(i > last for i in along):
+            hand.update(tr.name for tr in bodies[b])
     return frozenset(hand)
 
 

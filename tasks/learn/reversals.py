@@ -71,22 +71,27 @@ def _piece(f: SegmentFit, t0: float, t1: float, travel: float) -> SegmentFit:
 
 
 def split_reversals(prep: PreparedRecording, fits: list[SegmentFit], params: LearnParams) -> list[SegmentFit]:
-    """Every rotation or translation cut at the reversals of its part's motion (see the module docstring)."""
+    """Every rotation or translation cut at the reversals of its part's motion (see the module docstring). The
+    coordinate is followed into the rests on either side, so a retrace counts all the way to where the part comes
+    to rest, however the change points cut the end of its motion."""
     out: list[SegmentFit] = []
-    for f in fits:
-        got = smoothed_coordinate(prep, f, 3) if f.kind in ("rotation", "translation") else None
+    for i, f in enumerate(fits):
+        before = fits[i - 1] if i > 0 and fits[i - 1].kind == "still" else f
+        after = fits[i + 1] if i + 1 < len(fits) and fits[i + 1].kind == "still" else f
+        wide = replace(f, t_start=before.t_start, t_end=after.t_end)
+        got = smoothed_coordinate(prep, wide, 3) if f.kind in ("rotation", "translation") else None
         if got is None:
             out.append(f)
             continue
         grid, level, noise = got
         threshold = max(_least_motion(f, params), REVERSAL_SIGMAS * noise)
-        turns = turning_points(level, threshold)
+        turns = [k for k in turning_points(level, threshold) if f.t_start < grid[k] < f.t_end]
         if not turns:
             out.append(f)
             continue
         finite = np.flatnonzero(np.isfinite(level))
         cuts = [int(finite[0]), *turns, int(finite[-1])]
-        times = [f.t_start, *(float(grid[i]) for i in turns), f.t_end]
+        times = [f.t_start, *(float(grid[k]) for k in turns), f.t_end]
         for k in range(len(cuts) - 1):
             travel = float(level[cuts[k + 1]] - level[cuts[k]])
             out.append(_piece(f, times[k], times[k + 1], travel))

@@ -8,6 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tasks.fit.geometry import angle_between_axes, point_line_distance
+from tasks.fit.interpolate import bracketed
 from tasks.fit.moments import prefix_moments, span_residuals
 from tasks.fit.noise import noise_covariance, noise_sigma
 from tasks.fit.rotation import circle_from_points_algebraic, fit_rotation
@@ -172,3 +173,24 @@ def test_markers_of_a_sliding_part_travel_alike_and_a_turning_parts_do_not(seed:
     turn = [r / 0.08 * 0.1 * t + rng.normal(0.0, 0.002, len(t)) for r, t in zip((0.04, 0.08), times, strict=True)]
     assert travels_agree(times, slide)
     assert not travels_agree(times, turn)
+
+
+@pytest.mark.parametrize("jitter_s", [0.004, 0.012])
+def test_noise_at_jittered_sample_times_is_not_inflated_by_motion(jitter_s: float) -> None:
+    """A marker at 18 Hz with jittered stamps, sliding at 0.5 m/s under 0.6 mm of noise: differences of fixed
+    weights turn the motion between unevenly spaced samples into noise (0.5 m/s * 4 ms is 2 mm); divided differences
+    of the stamps cancel it."""
+    rng = np.random.default_rng(4)
+    t = np.arange(0.0, 3.0, 1.0 / 18.0) + rng.uniform(-jitter_s, jitter_s, 54)
+    pts = np.outer(0.5 * t, [0.6, 0.8, 0.0]) + rng.normal(0.0, 0.0006, (54, 3))
+    assert 0.0004 < noise_sigma(pts, t) < 0.0008
+
+
+def test_a_position_is_interpolated_between_samples_but_never_across_an_occlusion() -> None:
+    """At 10 Hz every interval is interpolated (there is nothing closer); at 120 Hz a 0.4 s hole is an occlusion."""
+    slow = np.arange(0.0, 2.0, 0.1)
+    assert bracketed(slow, np.array([0.05, 0.95, 1.9])).all()
+    fast = np.arange(0.0, 3.0, 1.0 / 120.0)
+    fast = fast[(fast < 1.0) | (fast > 1.4)]
+    got = bracketed(fast, np.array([0.5, 1.2, 2.0, 3.5]))
+    assert got.tolist() == [True, False, True, False]
