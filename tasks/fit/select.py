@@ -80,14 +80,11 @@ def model_costs(
     )
 
 
-def choose_bic(
-    costs: FloatArray, angle_rad: float, params: SelectParams, force: Kind | None = None, *, turned: bool = False
-) -> Kind:
+def choose_bic(costs: FloatArray, angle_rad: float, params: SelectParams, force: Kind | None = None) -> Kind:
     """The model of least cost from a (4,) cost row (or ``force``); a rotation sweeping too little counts as a
-    translation, forced or not: an arc too short to tell from a line is a line, unless the part is ``turned``
-    (its own orientation is seen to turn: a drawer's body does not turn along a slightly curved track)."""
+    translation, forced or not: an arc too short to tell from a line is a line."""
     kind = force or KINDS[int(np.argmin(costs))]
-    if kind == "rotation" and angle_rad < params.min_rotation_rad and not turned:
+    if kind == "rotation" and angle_rad < params.min_rotation_rad:
         return "translation"
     return kind
 

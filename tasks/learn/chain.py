@@ -22,8 +22,8 @@ from tasks.errors import bounded
 from tasks.fit.geometry import angle_between_axes, perpendicular_basis, unit
 from tasks.fit.interpolate import bracketed, positions_at
 from tasks.fit.moments import span_residuals
-from tasks.fit.noise import MAD_TO_SIGMA, independent_samples
-from tasks.fit.rigid import TURN_SIGMAS, PartMotion, ScrewAxis, part_motion, rss_about_axis, screw_axis
+from tasks.fit.noise import MAD_TO_SIGMA
+from tasks.fit.rigid import PartMotion, ScrewAxis, part_motion, rss_about_axis, screw_axis
 from tasks.fit.rotation import RotationFit, angles_about, fit_rotation
 from tasks.fit.select import KINDS, SIGMA_MIN_M, Kind, SelectParams, choose_bic, choose_eigen, model_costs
 from tasks.fit.translation import TranslationFit, fit_translation, travels_agree
@@ -90,21 +90,18 @@ in its halves, not in its quarters."""
 
 def displaced(track: Track, t0: float, t1: float) -> bool:
     """Whether a marker's position over [t0, t1) (s) changes beyond its noise (``SHIFT_SIGMAS``) between two of the
-    span's ``SHIFT_PARTS`` equal parts of time (a part's mean averages the noise down by its independent samples:
-    fewer than its samples where the noise is correlated); a span with fewer samples than a model needs is not
-    displaced."""
+    span's ``SHIFT_PARTS`` equal parts of time; a span with fewer samples than a model needs is not displaced."""
     i, j = span_indices(track, t0, t1)
     if j - i < MIN_MODEL_SAMPLES:
         return False
     edges = i + np.searchsorted(track.t_s[i:j], np.linspace(t0, t1, SHIFT_PARTS + 1)[1:-1])
     bounds = [i, *(int(e) for e in edges), j]
-    dt = float(np.median(np.diff(track.t_s[i:j])))
     means = []
     weights = []
     for a, b in itertools.pairwise(bounds):
         if b > a:
             means.append(track.points[a:b].mean(axis=0))
-            weights.append(independent_samples(b - a, dt, track.noise_tau_s))
+            weights.append(float(b - a))
     precision = np.linalg.pinv(track.noise_cov + np.eye(3) * SIGMA_MIN_M**2)
     for (ma, wa), (mb, wb) in itertools.combinations(zip(means, weights, strict=True), 2):
         delta = mb - ma
@@ -199,7 +196,7 @@ def fit_span(
     angle = swept_angle(pts, rf)
     if motion is not None:
         costs += evidence * orientation_costs(motion, rf.dir, sigma, params.undefined_nats)
-    kind = choose_bic(costs, angle, sel, force, turned=_seen_turning(screw, angle))
+    kind = choose_bic(costs, angle, sel, force)
     scores: dict[str, float] = {str(k): float(c) for k, c in zip(KINDS, costs, strict=True)}
     return SegmentFit(kind, t0, t1, names, still, rf, tf, scores, tf.eigenvalues, _extent(kind, rf, tf))
 
@@ -258,18 +255,6 @@ def _with_screw_direction(pts: list[Points], rf: RotationFit, screw: ScrewAxis, 
     direction = unit(w_fit * rf.dir + w_turn * sign * screw.dir)
     out = fit_rotation(pts, loss_scale_m, start=(rf.pos, direction), fixed_dir=True)
     return replace(out, dir_std_rad=float(1.0 / np.sqrt(w_fit + w_turn)))
-
-
-TURN_ARC_RATIO = 2.0
-"""The part's turn and its markers' arc are one rotation when neither exceeds the other by more than this factor."""
-
-
-def _seen_turning(screw: ScrewAxis | None, arc_rad: float) -> bool:
-    """Whether the part's own orientation shows the turn its markers' arc of ``arc_rad`` sweeps: a net turn resolved
-    to ``TURN_SIGMAS`` of its noise (its axis known within 1/``TURN_SIGMAS`` rad) and about as large as the arc."""
-    if screw is None or screw.dir_std_rad * TURN_SIGMAS > 1.0 or arc_rad <= 0.0:
-        return False
-    return 1.0 / TURN_ARC_RATIO <= screw.turn_rad / arc_rad <= TURN_ARC_RATIO
 
 
 def _best_direction(
