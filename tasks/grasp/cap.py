@@ -20,14 +20,12 @@ and a side that goes on past ``MAX_HEIGHT_M`` is no cap (a can). World frame, me
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial.transform import Rotation
-from sklearn.linear_model import RANSACRegressor
 
-from tasks.arrays import BoolArray, FloatArray, Points, Vector3
-from tasks.grasp.mount import in_plane
+from tasks.arrays import Points, Vector3
+from tasks.grasp.mount import in_plane, ransac_plane
 from tasks.grasp.primitive_shape import PrimitiveShape
 
 TOP_M = 0.002
@@ -56,43 +54,11 @@ MAX_RADIUS_M = 0.05
 """A cap is 8-60 mm tall and at most 50 mm in radius (the open Barrett hand spans about 0.2 m)."""
 
 
-@dataclass(frozen=True)
-class Cap:
-    """A cap found on a scan: the centre of its top face (3,) m world, its axis (3,) unit (its top face's normal,
-    into the object), its rim radius (m) and height (m, top face to where its side ends)."""
-
-    top: Vector3
-    axis: Vector3
-    radius_m: float
-    height_m: float
-
-    def shape(self) -> PrimitiveShape:
-        """The cap as a cylinder (radius, half height; centre and axis, world)."""
-        centre = np.asarray(self.top, dtype=np.float64) + self.axis * self.height_m / 2.0
-        quat = _z_to(self.axis)
-        return PrimitiveShape(
-            "cylinder",
-            (self.radius_m, self.height_m / 2.0, 0.0),
-            (float(centre[0]), float(centre[1]), float(centre[2])),
-            (float(quat[0]), float(quat[1]), float(quat[2]), float(quat[3])),
-        )
-
-    def contains(self, points: Points, tolerance_m: float = 0.003) -> BoolArray:
-        """(n,) whether each point lies within the cap (its height and radius, ``tolerance_m`` more)."""
-        rel = np.asarray(points, dtype=np.float64) - self.top
-        depth = rel @ self.axis
-        radial = np.linalg.norm(rel - depth[:, None] * self.axis, axis=1)
-        inside: BoolArray = (
-            (depth >= -tolerance_m) & (depth <= self.height_m + tolerance_m) & (radial <= self.radius_m + tolerance_m)
-        )
-        return inside
-
-
-def find_cap(scan: Points, palm_position: Vector3, approach: Vector3) -> Cap | None:
-    """The cap the palm at ``palm_position`` (3,) m looks down on along unit ``approach`` (3,), on the (n, 3) world
-    points (m) of a ``scan``; None when the nearest surface is not a disk within ``MAX_TOP_TILT_RAD`` of square to the
-    approach on a side of one radius ``MIN_HEIGHT_M`` to ``MAX_HEIGHT_M`` tall, or when nothing lies beyond the cap (see
-    the module docstring)."""
+def find_cap(scan: Points, palm_position: Vector3, approach: Vector3) -> PrimitiveShape | None:
+    """The cylinder of the cap the palm at ``palm_position`` (3,) m looks down on along unit ``approach`` (3,), on
+    the (n, 3) world points (m) of a ``scan`` (its local +z from the top face into the object); None when the nearest
+    surface is not a disk within ``MAX_TOP_TILT_RAD`` of square to the approach on a side of one radius
+    ``MIN_HEIGHT_M`` to ``MAX_HEIGHT_M`` tall, or when nothing lies beyond the cap (see the module docstring)."""
     raw = np.asarray(scan, dtype=np.float64)
     look = np.asarray(approach, dtype=np.float64) / float(np.linalg.norm(approach))
     depth = (raw - np.asarray(palm_position, dtype=np.float64)) @ look
@@ -134,33 +100,24 @@ def find_cap(scan: Points, palm_position: Vector3, approach: Vector3) -> Cap | N
         return None  # too short, or a side that goes on: a can, a box's corner, not a cap
     if not np.any(along > height + SLAB_M):
         return None  # nothing beyond the cap: the object is the cap alone
-    return Cap(centre, axis, rim, height)
+    middle = centre + axis * height / 2.0
+    quat = Rotation.align_vectors(axis[None, :], np.array([[0.0, 0.0, 1.0]]))[0].as_quat()
+    return PrimitiveShape(
+        "cylinder", (rim, height / 2.0, 0.0), (middle[0], middle[1], middle[2]), (quat[0], quat[1], quat[2], quat[3])
+    )
 
 
 def _ransac_plane(points: Points, look: Vector3) -> tuple[Vector3, Vector3] | None:
-    """Centroid (3,) and unit normal (3,), its sign along ``look``, of the plane most of ``points`` (n, 3) lie on
-    (depth along ``look`` a linear function of the two coordinates across it, within ``PLANE_TOLERANCE_M``), fitted
-    again to its inliers; None when fewer than ``MIN_TOP_POINTS`` lie on it."""
-
-    across = in_plane(look)
-    ransac = RANSACRegressor(min_samples=3, residual_threshold=PLANE_TOLERANCE_M, max_trials=100, random_state=0)
-    try:
-        ransac.fit(points @ across, points @ look)
-    except ValueError:  # no consensus set
+    """Centroid (3,) and unit normal (3,) (the smallest principal direction, its sign along ``look``) of the plane
+    most of ``points`` (n, 3) lie on (depth along ``look`` a linear function of the two coordinates across it, within
+    ``PLANE_TOLERANCE_M``), fitted again to its inliers; None when fewer than ``MIN_TOP_POINTS`` lie on it."""
+    ransac = ransac_plane(points @ in_plane(look), points @ look, PLANE_TOLERANCE_M, 100, 0)
+    if ransac is None or int(np.sum(ransac.inlier_mask_)) < MIN_TOP_POINTS:
         return None
-    inliers = np.asarray(ransac.inlier_mask_, dtype=bool)
-    if int(inliers.sum()) < MIN_TOP_POINTS:
-        return None
-    return _plane(points[inliers], look)
-
-
-def _plane(points: Points, look: Vector3) -> tuple[Vector3, Vector3]:
-    """Centroid (3,) and unit normal (3,) of the plane through ``points`` (their smallest principal direction),
-    the normal's sign along ``look``."""
-    centre = points.mean(axis=0)
-    _, vectors = np.linalg.eigh((points - centre).T @ (points - centre))
-    normal = vectors[:, 0] if float(vectors[:, 0] @ look) >= 0.0 else -vectors[:, 0]
-    return centre, normal
+    on = points[np.asarray(ransac.inlier_mask_, dtype=bool)]
+    centre = on.mean(axis=0)
+    _, vectors = np.linalg.eigh((on - centre).T @ (on - centre))
+    return centre, vectors[:, 0] if float(vectors[:, 0] @ look) >= 0.0 else -vectors[:, 0]
 
 
 def _round(radial: np.ndarray, sector: np.ndarray, rim: float) -> bool:
@@ -171,9 +128,3 @@ def _round(radial: np.ndarray, sector: np.ndarray, rim: float) -> bool:
         if len(here) == 0 or abs(float(here.max()) - rim) > STEP_M:
             return False
     return True
-
-
-def _z_to(axis: Vector3) -> FloatArray:
-    """Quaternion [x, y, z, w] of a rotation taking +z to unit ``axis``."""
-    rot, _ = Rotation.align_vectors(np.asarray([axis]), np.array([[0.0, 0.0, 1.0]]))
-    return np.asarray(rot.as_quat(), dtype=np.float64)

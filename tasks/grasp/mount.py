@@ -19,7 +19,7 @@ import math
 import numpy as np
 from sklearn.linear_model import RANSACRegressor
 
-from tasks.arrays import BoolArray, Points, Vector3
+from tasks.arrays import BoolArray, FloatArray, Points, Vector3
 
 PLANE_TOLERANCE_M = 0.003
 """Points within 3 mm of the plane are on it (a scan's noise and its 4 mm voxels)."""
@@ -60,13 +60,9 @@ def find_mount(points: Points, palm_position: Vector3, approach: Vector3) -> Boo
     for k in range(PLANES):
         if len(left) < MIN_SHARE * len(points):
             break
-        ransac = RANSACRegressor(
-            min_samples=3, residual_threshold=PLANE_TOLERANCE_M, max_trials=RANSAC_ITERATIONS, random_state=k
-        )
         sample = left[:: max(1, len(left) // FIT_POINTS)]  # an even subsample fits the plane; all points test it
-        try:
-            ransac.fit(uv[sample], depth[sample])
-        except ValueError:  # no consensus set at all
+        ransac = ransac_plane(uv[sample], depth[sample], PLANE_TOLERANCE_M, RANSAC_ITERATIONS, k)
+        if ransac is None:
             break
         on = np.zeros(len(points), dtype=bool)
         residual = np.abs(ransac.predict(uv[left]) - depth[left])
@@ -103,3 +99,14 @@ def in_plane(normal: Vector3) -> np.ndarray:
     u = np.cross(normal, helper)
     u /= float(np.linalg.norm(u))
     return np.stack([u, np.cross(normal, u)], axis=1)
+
+
+def ransac_plane(uv: Points, depth: FloatArray, tolerance_m: float, trials: int, seed: int) -> RANSACRegressor | None:
+    """scikit-learn's seeded RANSAC of ``depth`` (n,) m as a linear function of the coordinates ``uv`` (n, 2) m
+    across it, its points within ``tolerance_m``; None when no consensus set is found."""
+    ransac = RANSACRegressor(min_samples=3, residual_threshold=tolerance_m, max_trials=trials, random_state=seed)
+    try:
+        ransac.fit(uv, depth)
+    except ValueError:
+        return None
+    return ransac

@@ -31,7 +31,7 @@ from tasks.errors import GraspError
 from tasks.grasp.cap import find_cap
 from tasks.grasp.mount import find_mount
 from tasks.grasp.part_cylinders import find_cylinder, prism_vertices
-from tasks.grasp.primitive_fit import TOLERANCE_M, fit_primitive, surface_distance
+from tasks.grasp.primitive_fit import TOLERANCE_M, fit_primitive, surface_distance, within
 from tasks.grasp.primitive_shape import MIN_POINTS, PrimitiveShape
 
 INWARD_OFFSET_M = 0.005
@@ -51,6 +51,8 @@ this long (a palm buried in the object has points all around it: then it is igno
 MIN_PIECE_POINTS = 6
 """Fewest points of a piece made by a split."""
 
+CAP_MARGIN_M = 0.003
+"""Scan points within this of a cap's cylinder are the cap's (its 4 mm voxels' centroids lie up to 2 mm inside)."""
 GROUP_SPACINGS = 3.0
 """Points within this many median point spacings of each other belong to one group (``solid_pieces``)."""
 
@@ -298,9 +300,9 @@ def build_object_model(
         if not mount.any():
             cap = find_cap(scan, viewpoint, approach)
             if cap is not None:
-                on_cap = cap.contains(pts)
+                on_cap = within(cap, pts, CAP_MARGIN_M)
                 if MIN_POINTS <= int(on_cap.sum()) < len(pts):  # a cap, and something beyond it
-                    return _capped(pts, nrm, ~on_cap, cap.shape(), rng)
+                    return _capped(pts, nrm, ~on_cap, cap, rng)
         if mount.any() and int((~mount).sum()) >= MIN_POINTS:
             return _mounted(pts, nrm, mount, rng, fit=fit)
     center = pts.mean(axis=0)

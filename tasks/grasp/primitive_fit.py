@@ -29,8 +29,7 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
-from tasks.arrays import FloatArray, Points, Vector3
-from tasks.errors import GraspError
+from tasks.arrays import BoolArray, FloatArray, Points, Vector3
 from tasks.grasp.primitive_shape import MIN_POINTS, PrimitiveShape
 
 Kind = Literal["box", "cylinder"]
@@ -94,19 +93,17 @@ def surface_distance(shape: PrimitiveShape, points: Points) -> FloatArray:
 
 def fit_primitive(points: Points, normals: Points, *, tolerance_m: float = TOLERANCE_M) -> PrimitiveFit | None:
     """The box or cylinder whose surface explains (n, 3) world ``points`` (m) with outward unit ``normals`` (n, 3;
-    roughly right, signs may flip): 95th percentile distance within ``tolerance_m`` (as ``tolerance`` scales it
-    with the object), RMS within ``RMS_FRACTION`` of it, and the points covering the shape;
-    the one of lower RMS when both do. None when neither does, or for fewer than ``MIN_POINTS`` usable points
-    (finite, normal longer than 0.5); ``GraspError`` for arrays of the wrong shape."""
-    pts, nrm = _check(points, normals)
-    if len(pts) < MIN_POINTS:
+    signs may flip): 95th percentile distance within ``tolerance_m`` (as ``tolerance`` scales it with the object),
+    RMS within ``RMS_FRACTION`` of it, and the points covering the shape; the one of lower RMS when both do. None
+    when neither does, or for fewer than ``MIN_POINTS`` points."""
+    if len(points) < MIN_POINTS:
         return None
-    tol = tolerance(tolerance_m, float(np.linalg.norm(pts - pts.mean(axis=0), axis=1).max()))
+    tol = tolerance(tolerance_m, float(np.linalg.norm(points - points.mean(axis=0), axis=1).max()))
     kept = []
-    for fit in (_box_fit(pts, nrm), _cylinder_fit(pts, nrm)):
+    for fit in (fit_box(points, normals), fit_cylinder(points, normals)):
         if fit is None:
             continue
-        if fit.p95_m <= tol and fit.rms_m <= RMS_FRACTION * tol and supported(fit.shape, pts, tol):
+        if fit.p95_m <= tol and fit.rms_m <= RMS_FRACTION * tol and supported(fit.shape, points, tol):
             kept.append(fit)
     return min(kept, key=lambda f: f.rms_m, default=None)
 
@@ -120,51 +117,24 @@ def tolerance(tolerance_m: float, radius_m: float) -> float:
 
 
 def fit_box(points: Points, normals: Points) -> PrimitiveFit | None:
-    """The best box through (n, 3) world ``points`` (m) with ``normals`` (n, 3), however poor (None when the normals
-    show no two perpendicular directions); checked by ``fit_primitive``."""
-    pts, nrm = _check(points, normals)
-    return _box_fit(pts, nrm) if len(pts) >= MIN_POINTS else None
+    """The best box through (n, 3) world ``points`` (m) with unit ``normals`` (n, 3), however poor (None when the
+    normals show no two perpendicular directions); checked by ``fit_primitive``."""
+    frame = _normal_frame(normals)
+    if frame is None:
+        return None
+    lo, hi = np.quantile(points @ frame, [0.005, 0.995], axis=0)
+    return _refined("box", points, frame, frame @ ((lo + hi) / 2), (hi - lo) / 2)
 
 
 def fit_cylinder(points: Points, normals: Points) -> PrimitiveFit | None:
-    """The best cylinder through (n, 3) world ``points`` (m) with ``normals`` (n, 3), however poor (None when no
-    axis leaves enough side points for a circle); checked by ``fit_primitive``."""
-    pts, nrm = _check(points, normals)
-    return _cylinder_fit(pts, nrm) if len(pts) >= MIN_POINTS else None
-
-
-def _box_fit(pts: Points, nrm: Points) -> PrimitiveFit | None:
-    """``fit_box`` on points and unit normals already checked (``_check``, at least ``MIN_POINTS``)."""
-    frame = _normal_frame(nrm)
-    if frame is None:
-        return None
-    lo, hi = np.quantile(pts @ frame, [0.005, 0.995], axis=0)
-    return _refined("box", pts, frame, frame @ ((lo + hi) / 2), (hi - lo) / 2)
-
-
-def _cylinder_fit(pts: Points, nrm: Points) -> PrimitiveFit | None:
-    """``fit_cylinder`` on points and unit normals already checked (``_check``, at least ``MIN_POINTS``)."""
-    starts = [s for s in (_cylinder_start(pts, nrm, axis) for axis in _axis_candidates(pts, nrm)) if s is not None]
+    """The best cylinder through (n, 3) world ``points`` (m) with unit ``normals`` (n, 3), however poor (None when
+    no axis leaves enough side points for a circle); checked by ``fit_primitive``."""
+    axes = _axis_candidates(points, normals)
+    starts = [s for s in (_cylinder_start(points, normals, axis) for axis in axes) if s is not None]
     if not starts:
         return None
-    frame, centre, size = min(starts, key=lambda s: _robust_spread(pts, s))
-    return _refined("cylinder", pts, frame, centre, size)
-
-
-def _check(points: object, normals: object) -> tuple[Points, Points]:
-    """Float64 points and unit normals, without the rows holding a non-finite value or a normal shorter than 0.5
-    (unknown); ``GraspError`` on wrong shapes."""
-    pts = np.asarray(points, dtype=np.float64)
-    nrm = np.asarray(normals, dtype=np.float64)
-    if pts.ndim != 2 or pts.shape[1] != 3:
-        msg = f"points: expected shape (n, 3), got {pts.shape}"
-        raise GraspError(msg)
-    if nrm.shape != pts.shape:
-        msg = f"normals: expected shape {pts.shape} (as the points), got {nrm.shape}"
-        raise GraspError(msg)
-    length = np.linalg.norm(nrm, axis=1)
-    usable = np.all(np.isfinite(pts), axis=1) & np.isfinite(length) & (length > 0.5)
-    return pts[usable], nrm[usable] / length[usable, None]
+    frame, centre, size = min(starts, key=lambda s: _robust_spread(points, s))
+    return _refined("cylinder", points, frame, centre, size)
 
 
 def _refined(kind: Kind, points: Points, frame: FloatArray, centre: Vector3, size: Vector3) -> PrimitiveFit:
@@ -235,16 +205,30 @@ def _signed_distance(kind: Kind, local: Points, size: Vector3) -> FloatArray:
     return _distance_and_gradients(kind, local, size)[0]
 
 
+def _excess(kind: Kind, local: Points, size: Vector3) -> Points:
+    """How far (m) centre-frame points lie outside each pair of a box's faces (n, 3), or outside a cylinder's side
+    and its pair of end faces (n, 2); negative inside."""
+    if kind == "box":
+        out: Points = np.abs(local) - size
+        return out
+    return np.stack([np.hypot(local[:, 0], local[:, 1]) - size[0], np.abs(local[:, 2]) - size[1]], axis=1)
+
+
+def within(shape: PrimitiveShape, points: Points, margin_m: float) -> BoolArray:
+    """(n,) whether each of (n, 3) world ``points`` lies inside ``shape`` grown by ``margin_m`` (m) from each face."""
+    size = np.asarray(shape.size, dtype=np.float64)
+    inside: BoolArray = np.all(_excess(shape.kind, _local(shape, points), size) <= margin_m, axis=1)
+    return inside
+
+
 def _distance_and_gradients(kind: Kind, local: Points, size: Vector3) -> tuple[FloatArray, Points, Points]:
     """Signed distance (n,) m of centre-frame points to the surface (as ``_signed_distance``), its gradient with
     respect to the local point (n, 3) and to the size parameters (n, 3; the cylinder's third column zero)."""
+    excess = _excess(kind, local, size)
     if kind == "box":
-        excess = np.abs(local) - size
         d_excess_d_local = [np.sign(local)]
     else:
-        radial_dist = np.hypot(local[:, 0], local[:, 1])
-        excess = np.stack([radial_dist - size[0], np.abs(local[:, 2]) - size[1]], axis=1)
-        radial = local[:, :2] / np.maximum(radial_dist, 1e-12)[:, None]
+        radial = local[:, :2] / np.maximum(np.hypot(local[:, 0], local[:, 1]), 1e-12)[:, None]
         d_excess_d_local = [np.column_stack([radial, np.zeros(len(local))]), np.sign(local[:, 2])]
     over = np.maximum(excess, 0.0)
     outside = np.sqrt(np.einsum("ij,ij->i", over, over))
