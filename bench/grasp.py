@@ -43,7 +43,7 @@ from schemas.descriptor import Grasp
 from tasks.errors import GraspError, PbdError
 from tasks.grasp import closing
 from tasks.grasp.api import part_near, plan_on_model
-from tasks.grasp.candidate_grasp import grasp_from_candidate
+from tasks.grasp.execution import grasp_from_candidate
 from tasks.grasp.object_model import ObjectModel, build_object_model, load_object
 from tasks.grasp.quality import grasp_quality
 from tasks.grasp.shake import shake_test

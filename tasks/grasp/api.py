@@ -34,11 +34,10 @@ from scipy.spatial.transform import Rotation
 from schemas.descriptor import Grasp
 from tasks.arrays import FloatArray, Points, Vector3
 from tasks.errors import GraspError
-from tasks.grasp.candidate_grasp import grasp_from_candidate
-from tasks.grasp.execution import GraspCandidate, execute_states, hand_and_object, robust
+from tasks.grasp.execution import GraspCandidate, execute_states, grasp_from_candidate, hand_and_object, robust
 from tasks.grasp.generators import GENERATORS
 from tasks.grasp.hold_check import CHECK_LENGTH_S, CHECK_SHIFT_M, CHECK_TURN_TOL_RAD, hold_check
-from tasks.grasp.object_model import ObjectModel, build_object_model, check_object_points, crop_points
+from tasks.grasp.object_model import ObjectModel, build_object_model, check_object_points
 from tasks.grasp.planner import PlannerParams, search_space
 from tasks.grasp.quality import GraspQuality, grasp_quality
 from tasks.grasp.seed import (
@@ -164,7 +163,7 @@ def planned_on(model: ObjectModel) -> str:
 def part_near(points: Points, palm_position: Vector3, radius_m: float = CROP_RADIUS_M) -> Points:
     """The object points within ``radius_m`` of the point nearest the palm (the part the hand reaches for)."""
     nearest = points[int(np.argmin(np.linalg.norm(points - palm_position, axis=1)))]
-    part = crop_points(points, nearest, radius_m)
+    part = points[np.linalg.norm(points - nearest, axis=1) <= radius_m]
     return part if len(part) >= 30 else points
 
 

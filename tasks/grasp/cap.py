@@ -5,7 +5,7 @@ The plane search of ``mount.py`` finds the face a handle or a lever stands on; a
 narrower than itself, on a shoulder and a body, none of which is a plane facing the hand. Without a mount the whole scan
 is the free body of the planner's hold check, and fingers that close on the neck hold it there, while on the bottle only
 the cap turns: a palm 10-20 mm further down than the demonstrated one passes such a check with its fingers on the
-neck and drops the cap. Planned on the cap alone (its cylinder one exact piece, ``object_model._capped``) with the
+neck and drops the cap. Planned on the cap alone (its cylinder one exact piece, ``object_model.mounted_model``) with the
 neck and body as the mount, the check asks what the task needs: that the cap stays in the hand.
 
 The top face is the plane most of the points nearest the palm lie on; its normal is the cap's axis (a demonstrated

@@ -14,6 +14,7 @@ import numpy as np
 import pybullet as pb
 from scipy.spatial.transform import Rotation
 
+from schemas.descriptor import Grasp
 from tasks.arrays import FloatArray, Vector3
 from tasks.grasp import closing
 from tasks.grasp.object_model import ObjectModel, load_object
@@ -67,6 +68,28 @@ class GraspCandidate:
     angle_rad: float
     source: str = ""
     fingers: tuple[int, ...] = ()
+
+
+def grasp_from_candidate(candidate: GraspCandidate) -> Grasp:
+    """The descriptor's grasp ``G`` (DESCRIPTOR.md) of a candidate: the Barrett hand, the pre-grasp amplitudes, the
+    palm pose (world, m, [x, y, z, w]) and the qualities."""
+    q, pos, quat = candidate.quality, candidate.position, candidate.quat_xyzw
+    return Grasp(
+        hand="barrett",
+        eigengrasps=(barrett.spread_amplitude(float(candidate.closed[0])), barrett.CLOSE_AMPLITUDE),
+        wrist_position=(float(pos[0]), float(pos[1]), float(pos[2])),
+        wrist_orientation=(float(quat[0]), float(quat[1]), float(quat[2]), float(quat[3])),
+        quality={
+            "epsilon": q.epsilon,
+            "volume": q.volume,
+            "force_closure": q.force_closure,
+            "contacts": q.contacts,
+            "mu": q.mu,
+            "closed_dofs": [float(v) for v in candidate.closed[:4]],
+            "demo_offset_m": candidate.offset_m,
+            "demo_angle_rad": candidate.angle_rad,
+        },
+    )
 
 
 def closeness(space: SearchSpace, rot: FloatArray, pos: Vector3, params: PlannerParams) -> tuple[float, float, float]:

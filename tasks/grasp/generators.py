@@ -61,9 +61,8 @@ def annealed(model: ObjectModel, space: SearchSpace, params: PlannerParams, rng:
     """The best unique states of ``params.chains`` annealing chains from the demonstrated palm."""
     best = BestList(params.candidates, space.upper - space.lower)
     d0 = float(np.clip(space.pivot_m, *params.distance_range_m))
-    for a1 in CHAIN_SPREADS[: params.chains]:
-        start = np.array([a1, -1.0, d0, 0.0, 0.0, 0.0, 0.0, 0.0])
-        anneal(lambda x: state_energy(model, space, x), start, space, rng, params.steps, best, params.schedule)
+    starts = np.array([[a1, -1.0, d0, 0.0, 0.0, 0.0, 0.0, 0.0] for a1 in CHAIN_SPREADS[: params.chains]])
+    anneal(lambda x: state_energy(model, space, x), starts, space, rng, params.steps, best, params.schedule)
     return [Proposal("annealed", x, params.approach_max_m) for _, x in best.states]
 
 

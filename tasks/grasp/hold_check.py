@@ -22,26 +22,20 @@ turn amplitude (rad) and frequency (Hz), cycles of each motion (whole cycles: A 
 began)."""
 
 
-def check_length_s(cycles: float = CHECK_CYCLES) -> float:
-    """Simulated length of ``hold_check`` (s) with ``cycles`` of each motion: three gravity phases, each 0.5 s
-    settling then the four motions."""
-    return 3 * (0.5 + cycles * (3 / CHECK_FREQUENCY_HZ + 1 / CHECK_TURN_HZ))
-
-
-CHECK_LENGTH_S = check_length_s()
-"""Simulated length of ``hold_check`` (s) at ``CHECK_CYCLES``: 6 s."""
+CHECK_LENGTH_S = 3 * (0.5 + CHECK_CYCLES * (3 / CHECK_FREQUENCY_HZ + 1 / CHECK_TURN_HZ))
+"""Simulated length of ``hold_check`` (s): three gravity phases, each 0.5 s settling then the four motions (6 s)."""
 CHECK_SHIFT_M = 0.005
 CHECK_TURN_TOL_RAD = math.radians(5.0)
 """``hold_check`` fails a grasp whose part moved 5 mm or turned 5° in the hand: half the slip a longer, harsher
 shake allows (10 mm, 10°), since slip that starts in a short check goes on in a longer one."""
 
 
-def hold_check(palm_quat_xyzw: FloatArray, cycles: float = CHECK_CYCLES) -> ShakeParams:
+def hold_check(palm_quat_xyzw: FloatArray) -> ShakeParams:
     """The planner's hold check for a grasp whose palm has orientation ``palm_quat_xyzw`` (world [x, y, z, w]):
     gravity world down, then tilted 30° towards either end of the palm's x axis (the axis of a bar the fingers
     close round: a lever slides along it) laid horizontal, or of its y axis when x is near vertical; in each
     phase translations along world x, y and z with 6.5 m/s² peaks at 3 Hz and a turn of the palm of 7.5° about
-    the world diagonal at 2 Hz, ``cycles`` each (one: 6 s in all), within 5 mm and 5°. Run on the planner's own
+    the world diagonal at 2 Hz, one cycle each (6 s in all), within 5 mm and 5°. Run on the planner's own
     object model. The tilts and the palm turn load a fingertip grasp along and about the bar, the directions it
     slips in, which world gravity and translations alone do not."""
     rot = Rotation.from_quat(palm_quat_xyzw).as_matrix()
@@ -56,9 +50,9 @@ def hold_check(palm_quat_xyzw: FloatArray, cycles: float = CHECK_CYCLES) -> Shak
         gravity.append((float(g[0]), float(g[1]), float(g[2])))
     amplitude = CHECK_PEAK_MS2 / (2.0 * math.pi * CHECK_FREQUENCY_HZ) ** 2
     axes = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
-    motions = [Motion(a, amplitude, CHECK_FREQUENCY_HZ, cycles) for a in axes]
+    motions = [Motion(a, amplitude, CHECK_FREQUENCY_HZ, CHECK_CYCLES) for a in axes]
     diagonal = 1.0 / math.sqrt(3.0)
-    motions.append(Motion((diagonal, diagonal, diagonal), CHECK_TURN_RAD, CHECK_TURN_HZ, cycles, turn=True))
+    motions.append(Motion((diagonal, diagonal, diagonal), CHECK_TURN_RAD, CHECK_TURN_HZ, CHECK_CYCLES, turn=True))
     return ShakeParams(
         max_shift_m=CHECK_SHIFT_M, max_turn_rad=CHECK_TURN_TOL_RAD, gravity=tuple(gravity), motions=tuple(motions)
     )

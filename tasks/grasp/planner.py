@@ -92,14 +92,6 @@ class PlannerParams:
     hold_checks: float = 3.0
 
 
-def _rot(axis: int, a: float) -> FloatArray:
-    c, s = math.cos(a), math.sin(a)
-    i, j = [(1, 2), (2, 0), (0, 1)][axis]
-    out = np.eye(3)
-    out[i, i], out[i, j], out[j, i], out[j, j] = c, -s, s, c
-    return out
-
-
 @dataclass(frozen=True)
 class SearchSpace:
     """The demonstrated palm (rotation (3, 3), position (3,) m, world), the pivot distance along its approach (m),
@@ -118,10 +110,11 @@ class SearchSpace:
         return out
 
     def pose(self, x: FloatArray) -> tuple[FloatArray, Vector3]:
-        """Palm rotation (3, 3) and position (3,) in the world for state x."""
-        rot = self.seed_rot @ _rot(0, float(x[4])) @ _rot(1, float(x[5])) @ _rot(2, float(x[3]))
-        centre = self.pivot + self.seed_rot[:, 0] * float(x[6]) + self.seed_rot[:, 1] * float(x[7])
-        return rot, centre - rot[:, 2] * float(x[2])
+        """Palm rotation (..., 3, 3) and position (..., 3) in the world for states x (..., 8): the demonstrated palm
+        turned about its x, then its new y, then its new z axis (intrinsic XYZ)."""
+        rot = self.seed_rot @ Rotation.from_euler("XYZ", x[..., [4, 5, 3]]).as_matrix()
+        centre = self.pivot + x[..., 6, None] * self.seed_rot[:, 0] + x[..., 7, None] * self.seed_rot[:, 1]
+        return rot, centre - rot[..., :, 2] * x[..., 2, None]
 
     def state(self, rot: FloatArray, pos: Vector3, spread_rad: float) -> FloatArray:
         """The state of a palm pose (world) with the open hand at ``spread_rad``, a2 = 0 (the inverse of ``pose``)."""
@@ -154,30 +147,30 @@ def search_space(model: ObjectModel, seed_rot: FloatArray, seed_pos: Vector3, pa
     return SearchSpace(seed_rot, np.asarray(seed_pos, dtype=np.float64), pivot, lower, upper)
 
 
-def contact_energy(model: ObjectModel, rot: FloatArray, pos: Vector3, dofs: FloatArray) -> float:
-    """Mean over the virtual contacts of |distance| + 50 (1 - n·p) in mm (n into the object, p the contact's
-    approach direction, both world), or ``ILLEGAL_ENERGY`` when the hand enters the object."""
-    tfs = barrett.link_transforms(barrett.joint_positions(dofs))
+def contact_energy(model: ObjectModel, rot: FloatArray, pos: Vector3, joints: FloatArray) -> FloatArray:
+    """(c,) mean over the virtual contacts of |distance| + 50 (1 - n·p) in mm (n into the object, p the contact's
+    approach direction, both world), or ``ILLEGAL_ENERGY`` where the hand enters the object, of c hand poses:
+    palm rotations (c, 3, 3) and positions (c, 3) (world, m), URDF joint angles (c, 9) rad."""
+    tfs = barrett.link_transforms(joints)
     vc_pos, vc_dir = barrett.VIRTUAL_CONTACTS.in_palm(tfs)
     surf_pos, _ = barrett.SURFACE_SAMPLES.in_palm(tfs)
-    surf_world = surf_pos @ rot.T + pos
-    inside_box = np.all((surf_world > model.lower) & (surf_world < model.upper), axis=1)
+    surf_world = np.einsum("cij,cmj->cmi", rot, surf_pos) + pos[:, None, :]
+    inside_box = np.all((surf_world > model.lower) & (surf_world < model.upper), axis=2)
     probe = surf_world[inside_box]
+    illegal = np.zeros(len(rot), dtype=bool)
     if len(probe):
         _, idx = model.tree.query(probe)
         signed = np.einsum("ij,ij->i", probe - model.points[idx], model.normals[idx])
-        if np.any(signed < -PENETRATION_TOL_M):
-            return ILLEGAL_ENERGY
-    vc_world = vc_pos @ rot.T + pos
-    dist, idx = model.tree.query(vc_world)
-    align = 1.0 + np.einsum("ij,ij->i", model.normals[idx], vc_dir @ rot.T)  # 1 - n_in · p
-    return float(np.mean(1000.0 * dist + NORMAL_WEIGHT_MM * align))
+        illegal[np.nonzero(inside_box)[0][signed < -PENETRATION_TOL_M]] = True
+    dist, idx = model.tree.query(np.einsum("cij,cmj->cmi", rot, vc_pos) + pos[:, None, :])
+    align = 1.0 + np.einsum("cmi,cmi->cm", model.normals[idx], np.einsum("cij,cmj->cmi", rot, vc_dir))  # 1 - n_in · p
+    return np.where(illegal, ILLEGAL_ENERGY, np.mean(1000.0 * dist + NORMAL_WEIGHT_MM * align, axis=1))
 
 
-def state_energy(model: ObjectModel, space: SearchSpace, x: FloatArray) -> float:
-    """``contact_energy`` (mm) of state x in ``space``."""
+def state_energy(model: ObjectModel, space: SearchSpace, x: FloatArray) -> FloatArray:
+    """(c,) ``contact_energy`` (mm) of states x (c, 8) in ``space``."""
     rot, pos = space.pose(x)
-    return contact_energy(model, rot, pos, barrett.dofs_from_eigengrasps(float(x[0]), float(x[1])))
+    return contact_energy(model, rot, pos, barrett.joints_from_eigengrasps(x[:, :2]))
 
 
 def ingber_from_uniforms(temperature: float, u: FloatArray) -> FloatArray:
@@ -219,26 +212,33 @@ class BestList:
 
 
 def anneal(  # noqa: PLR0917 -- the annealing inputs, named at call sites
-    energy: Callable[[FloatArray], float],
-    start: FloatArray,
+    energy: Callable[[FloatArray], FloatArray],
+    starts: FloatArray,
     space: SearchSpace,
     rng: np.random.Generator,
     steps: int,
     best: BestList,
     schedule: Schedule | None = None,
 ) -> None:
-    """One annealing chain of ``steps`` from ``start`` within the space's bounds, every state offered to ``best``.
-    A neighbour moves each variable by half the range times an Ingber draw at the neighbour temperature."""
+    """One annealing chain of ``steps`` from each of ``starts`` (c, 8) within the space's bounds, the chains side by
+    side (one call of the batched ``energy`` per step), each drawing its own numbers in turn; then every state of
+    chain 0, of chain 1, ... offered to ``best``. A neighbour moves each variable by half the range times an Ingber
+    draw at the neighbour temperature."""
     sched = schedule or Schedule()
     jump = (space.upper - space.lower) / 2.0
-    x = np.clip(np.asarray(start, dtype=np.float64), space.lower, space.upper)
+    x = np.clip(np.asarray(starts, dtype=np.float64), space.lower, space.upper)
+    draws = np.stack([rng.random((steps, x.shape[1] + 1)) for _ in x])
     e = energy(x)
-    best.offer(x, e)
-    draws = rng.random((steps, len(x) + 1))
-    for k, row in enumerate(draws, start=sched.k0):
-        y = np.clip(x + jump * ingber_from_uniforms(sched.neighbour_temperature(k), row[:-1]), space.lower, space.upper)
+    seen, seen_e = [x], [e]
+    for k in range(steps):
+        move = ingber_from_uniforms(sched.neighbour_temperature(k + sched.k0), draws[:, k, :-1])
+        y = np.clip(x + jump * move, space.lower, space.upper)
         e_new = energy(y)
-        best.offer(y, e_new)
-        worse = (e_new - e) * sched.error_scale / sched.accept_temperature(k)
-        if e_new < e or (e_new < ILLEGAL_ENERGY and float(row[-1]) < math.exp(-min(worse, 700.0))):
-            x, e = y, e_new
+        seen.append(y)
+        seen_e.append(e_new)
+        worse = (e_new - e) * sched.error_scale / sched.accept_temperature(k + sched.k0)
+        take = (e_new < e) | ((e_new < ILLEGAL_ENERGY) & (draws[:, k, -1] < np.exp(-np.minimum(worse, 700.0))))
+        x, e = np.where(take[:, None], y, x), np.where(take, e_new, e)
+    for chain_x, chain_e in zip(np.stack(seen, axis=1), np.stack(seen_e, axis=1), strict=True):
+        for state, energy_mm in zip(chain_x, chain_e, strict=True):
+            best.offer(state, float(energy_mm))

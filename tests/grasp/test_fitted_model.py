@@ -12,6 +12,7 @@ from tasks.grasp.hold_check import hold_check
 from tasks.grasp.object_model import build_object_model
 from tasks.grasp.primitive_shape import PrimitiveShape
 from tasks.grasp.shake import shake_test
+from tests.grasp.cases.exact import primitive_model
 from tests.grasp.cases.grasp import handle_on_plate
 from tests.grasp.surface_sampling import sample_box_surface, sample_cylinder_surface
 
@@ -66,5 +67,5 @@ def test_a_grasp_planned_on_a_fitted_cylinder_holds_the_exact_cylinder() -> None
     assert grasp.quality["planned_on"] == "cylinder"
     assert grasp.quality["force_closure"]
     exact = PrimitiveShape("cylinder", (0.03, 0.07, 0.0), (float(CENTRE[0]), float(CENTRE[1]), float(CENTRE[2])))
-    truth = build_object_model(scan, rng, primitive=exact, normals=np.zeros_like(scan))
+    truth = primitive_model(scan, exact)
     assert shake_test(truth, grasp, hold_check(np.asarray(grasp.wrist_orientation))).holds

@@ -11,10 +11,10 @@ from tasks.grasp.object_model import (
     PrimitiveShape,
     build_object_model,
     estimate_normals,
-    labelled_model,
     voxel_downsample,
 )
 from tasks.grasp.part_cylinders import find_cylinder, prism_vertices
+from tests.grasp.cases.exact import labelled_model
 from tests.grasp.cases.grasp import handle_on_plate
 from tests.grasp.surface_sampling import sample_box_surface
 

@@ -10,7 +10,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from tasks.grasp.api import part_near, plan_on_model
-from tasks.grasp.candidate_grasp import grasp_from_candidate
+from tasks.grasp.execution import grasp_from_candidate
 from tasks.grasp.object_model import build_object_model
 from tasks.grasp.seed import stillest_time_ns
 from tasks.hand import barrett
