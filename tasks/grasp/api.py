@@ -36,7 +36,6 @@ from tasks.arrays import FloatArray, Points, Vector3
 from tasks.errors import GraspError
 from tasks.grasp.execution import GraspCandidate, execute_states, grasp_from_candidate, hand_and_object, robust
 from tasks.grasp.generators import GENERATORS
-from tasks.grasp.hold_check import CHECK_LENGTH_S, CHECK_SHIFT_M, CHECK_TURN_TOL_RAD, hold_check
 from tasks.grasp.object_model import ObjectModel, build_object_model, check_object_points
 from tasks.grasp.planner import PlannerParams, search_space
 from tasks.grasp.quality import GraspQuality, grasp_quality
@@ -48,15 +47,11 @@ from tasks.grasp.seed import (
     stillest_time_ns,
     wrist_pose_at,
 )
-from tasks.grasp.shake import ShakeResult, shake_test
+from tasks.grasp.shake import CHECK_LENGTH_S, CHECK_SHIFT_M, CHECK_TURN_TOL_RAD, ShakeResult, hold_check, shake_test
 from tasks.recording.load import PoseTrack
 
 CROP_RADIUS_M = 0.15
 """Object points farther than this from the part nearest the seed palm are left out (the part to grasp)."""
-HELD_MU = 0.8
-"""Friction coefficient of the hold check's contacts: the part's 0.8 (``shake.ShakeParams.friction``) times the
-finger pads' 1.0, as Bullet combines them: a grasp that held without a force closure at ``PlannerParams.mu`` is
-judged at the friction it was held with."""
 FIRM = 0.5
 """A grasp that held but let the part move or turn more than this fraction of the check's tolerances is kept back
 while a firmer one may be found: slip that starts in a short check goes on in a longer one."""
@@ -97,12 +92,9 @@ def choose(model: ObjectModel, ranked: list[GraspCandidate], params: PlannerPara
     """The first of ``ranked`` that survives the wrist error (``execution.robust``) and holds firmly (``FIRM``) under
     ``hold_check`` with a force closure at ``params.mu``, static or squeezed (then with the squeezed quality), while
     the budget lasts (a check starts only while a whole one fits in the simulated time left); else the first that
-    held loosely; else the first that held with a squeezed force closure at ``HELD_MU``; else the checked force
-    closure that lasted longest; else the first force closure; else the first."""
+    held; else the first force closure; else the first."""
     left = params.hold_checks * CHECK_LENGTH_S
-    loose: list[GraspCandidate] = []
     held: list[GraspCandidate] = []
-    longest: tuple[float, GraspCandidate] | None = None
     with hand_and_object(model) as ids:
         for cand in ranked:
             if left < CHECK_LENGTH_S:
@@ -113,21 +105,10 @@ def choose(model: ObjectModel, ranked: list[GraspCandidate], params: PlannerPara
             left -= result.survived_s
             quality = cand.quality if cand.quality.force_closure else _squeezed(result, model, params.mu)
             if result.holds and quality.force_closure:
-                chosen = dataclasses.replace(cand, quality=quality)
+                held.append(dataclasses.replace(cand, quality=quality))
                 if result.max_shift_m <= FIRM * CHECK_SHIFT_M and result.max_turn_rad <= FIRM * CHECK_TURN_TOL_RAD:
-                    return chosen
-                loose.append(chosen)
-            elif result.holds:
-                at_held = _squeezed(result, model, HELD_MU)
-                if at_held.force_closure:
-                    held.append(dataclasses.replace(cand, quality=at_held))
-            if cand.quality.force_closure and (longest is None or result.survived_s > longest[0]):
-                longest = (result.survived_s, cand)
-    if loose or held:
-        return (loose + held)[0]
-    if longest is not None:
-        return longest[1]
-    return next((c for c in ranked if c.quality.force_closure), ranked[0])
+                    return held[-1]
+    return held[0] if held else next((c for c in ranked if c.quality.force_closure), ranked[0])
 
 
 def plan_grasp(

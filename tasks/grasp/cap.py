@@ -22,11 +22,12 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import numpy.typing as npt
 from scipy.spatial.transform import Rotation
 
-from tasks.arrays import Points, Vector3
+from tasks.arrays import FloatArray, Points, Vector3
 from tasks.grasp.mount import in_plane, ransac_plane
-from tasks.grasp.primitive_shape import PrimitiveShape
+from tasks.grasp.primitive_fit import PrimitiveShape
 
 TOP_M = 0.002
 """Scan points within this distance of the top face's plane are on it."""
@@ -120,11 +121,9 @@ def _ransac_plane(points: Points, look: Vector3) -> tuple[Vector3, Vector3] | No
     return centre, vectors[:, 0] if float(vectors[:, 0] @ look) >= 0.0 else -vectors[:, 0]
 
 
-def _round(radial: np.ndarray, sector: np.ndarray, rim: float) -> bool:
+def _round(radial: FloatArray, sector: npt.NDArray[np.int64], rim: float) -> bool:
     """Whether a slab's points (their distances ``radial`` (k,) m from the axis and ``sector`` (k,) indices) reach
     the rim's radius ``rim`` (m), within ``STEP_M``, in every sector and nowhere go past it by more."""
-    for k in range(SECTORS):
-        here = radial[sector == k]
-        if len(here) == 0 or abs(float(here.max()) - rim) > STEP_M:
-            return False
-    return True
+    outermost = np.full(SECTORS, -np.inf)
+    np.maximum.at(outermost, sector, radial)
+    return bool(np.all(np.abs(outermost - rim) <= STEP_M))

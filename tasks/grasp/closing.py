@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 import numpy.typing as npt
@@ -73,10 +74,6 @@ def approach_to_contact(  # noqa: PLR0917 -- pybullet ids then the pose, as in p
     return pos
 
 
-def _finger_touches(client_id: int, hand: int, obj: int, links: tuple[int, ...]) -> bool:
-    return any(min_distance(client_id, hand, obj, link, within=0.01) < CONTACT_M for link in links)
-
-
 def _pair_distances(client_id: int, hand: int, obj: int, links: tuple[int, ...]) -> dict[tuple[int, int], float]:
     """Closest distance (m, within 10 mm) of each (hand link, object piece) pair of ``links``."""
     out: dict[tuple[int, int], float] = {}
@@ -93,11 +90,6 @@ def _blocked(before: dict[tuple[int, int], float], after: dict[tuple[int, int], 
     return any(d < CONTACT_M and d < before.get(key, 1.0) - 1e-4 for key, d in after.items())
 
 
-def _set_finger(client_id: int, hand: int, finger: int, proximal: float, distal: float) -> None:
-    pb.resetJointState(hand, barrett.PROXIMAL_JOINTS[finger], proximal, 0.0, physicsClientId=client_id)
-    pb.resetJointState(hand, barrett.DISTAL_JOINTS[finger], distal, 0.0, physicsClientId=client_id)
-
-
 def _close_joint(  # noqa: PLR0917 -- private helper
     client_id: int,
     hand: int,
@@ -106,11 +98,10 @@ def _close_joint(  # noqa: PLR0917 -- private helper
     stop: float,
     set_angle: Callable[[float], None],
     links: tuple[int, ...],
-) -> tuple[float, bool]:
+) -> float:
     """Increase one angle from ``start`` to ``stop`` until ``links`` are blocked (pressed into the object, not
-    merely touching it while moving away: ``_blocked``); returns (angle, blocked)."""
-    prev = start
-    angle = start
+    merely touching it while moving away: ``_blocked``); returns the angle."""
+    prev = angle = start
     set_angle(start)
     before = _pair_distances(client_id, hand, obj, links)
     while angle < stop - 1e-9:
@@ -127,74 +118,55 @@ def _close_joint(  # noqa: PLR0917 -- private helper
                 else:
                     lo = mid
             set_angle(lo)
-            return lo, True
-        prev = angle
-        before = after
-    return angle, False
+            return lo
+        prev, before = angle, after
+    return angle
 
 
-def close_fingers(client_id: int, hand: int, obj: int, dofs: npt.ArrayLike, breakaway: bool = True) -> FloatArray:
-    """Close each finger from (4,) ``dofs`` until contact; returns (7,) [spread, prox1..3, dist1..3] radians."""
+def close_fingers(client_id: int, hand: int, obj: int, dofs: npt.ArrayLike) -> FloatArray:
+    """Close each finger from (4,) ``dofs`` until contact, its distal link on alone when only the proximal one
+    touches (the BH8's breakaway); returns (7,) [spread, prox1..3, dist1..3] radians."""
     d = barrett.clamp_dofs(dofs)
     barrett.apply_dofs(client_id, hand, d)
     prox_out = d[1:].copy()
     dist_out = barrett.coupled_distal(d[1:])
-    for finger in range(3):
-        plink, dlink = barrett.FINGER_LINKS[finger]
+    for finger, (plink, dlink) in enumerate(barrett.FINGER_LINKS):
 
-        def set_coupled(angle: float, finger: int = finger) -> None:
-            _set_finger(client_id, hand, finger, angle, float(barrett.coupled_distal(angle)))
+        def set_finger(proximal: float, distal: float | None = None, finger: int = finger) -> None:
+            bent = float(barrett.coupled_distal(proximal)) if distal is None else distal
+            pb.resetJointState(hand, barrett.PROXIMAL_JOINTS[finger], proximal, 0.0, physicsClientId=client_id)
+            pb.resetJointState(hand, barrett.DISTAL_JOINTS[finger], bent, 0.0, physicsClientId=client_id)
 
-        angle, _ = _close_joint(
-            client_id,
-            hand,
-            obj,
-            float(d[finger + 1]),
-            float(barrett.DOF_UPPER[finger + 1]),
-            set_coupled,
-            (plink, dlink),
-        )
-        prox_out[finger] = angle
-        dist_out[finger] = float(barrett.coupled_distal(angle))
-        proximal_touch = _finger_touches(client_id, hand, obj, (plink,))
-        distal_touch = _finger_touches(client_id, hand, obj, (dlink,))
-        if breakaway and proximal_touch and not distal_touch:
-
-            def set_distal(value: float, finger: int = finger, prox: float = angle) -> None:
-                _set_finger(client_id, hand, finger, prox, value)
-
-            dist_out[finger], _ = _close_joint(
-                client_id, hand, obj, float(dist_out[finger]), barrett.DISTAL_UPPER, set_distal, (dlink,)
+        top = float(barrett.DOF_UPPER[finger + 1])
+        angle = _close_joint(client_id, hand, obj, float(d[finger + 1]), top, set_finger, (plink, dlink))
+        prox_out[finger], dist_out[finger] = angle, float(barrett.coupled_distal(angle))
+        touching = {
+            link for (link, _), gap in _pair_distances(client_id, hand, obj, (plink, dlink)).items() if gap < CONTACT_M
+        }
+        if plink in touching and dlink not in touching:
+            bend = partial(set_finger, angle)  # the proximal joint stays where it stopped
+            dist_out[finger] = _close_joint(
+                client_id, hand, obj, dist_out[finger], barrett.DISTAL_UPPER, bend, (dlink,)
             )
     return np.concatenate([[d[0]], prox_out, dist_out])
 
 
 def contacts_of(client_id: int, hand: int, obj: int, within: float = 0.002, merge_m: float = 0.003) -> Contacts:
-    """Contacts between the hand and the object closer than ``within`` metres, merged within ``merge_m``."""
-    pts = pb.getClosestPoints(hand, obj, within, physicsClientId=client_id)
-    positions: list[FloatArray] = []
-    normals: list[FloatArray] = []
-    links: list[int] = []
-    pieces: list[int] = []
-    for p in pts:
+    """Contacts between the hand and the object closer than ``within`` metres, merged within ``merge_m`` per link."""
+    found: list[tuple[FloatArray, FloatArray, int, int]] = []
+    for p in pb.getClosestPoints(hand, obj, within, physicsClientId=client_id):
         pos = np.array(p[6], dtype=np.float64)
         normal_to_hand = np.array(p[7], dtype=np.float64)  # normal on B (object) pointing towards A (hand)
         norm = float(np.linalg.norm(normal_to_hand))
-        if norm < 1e-9:
+        if norm < 1e-9 or any(link == p[3] and np.linalg.norm(pos - q) < merge_m for q, _, link, _ in found):
             continue
-        if any(
-            float(np.linalg.norm(pos - q)) < merge_m and link == p[3] for q, link in zip(positions, links, strict=True)
-        ):
-            continue
-        positions.append(pos)
-        normals.append(-normal_to_hand / norm)
-        links.append(int(p[3]))
-        pieces.append(int(p[4]) + 1)  # the body's base is piece 0, link k is piece k + 1
-    if not positions:
-        empty = np.zeros(0, dtype=np.int64)
-        return Contacts(np.zeros((0, 3)), np.zeros((0, 3)), empty, empty.copy())
+        found.append((pos, -normal_to_hand / norm, int(p[3]), int(p[4]) + 1))  # base is piece 0, link k piece k + 1
+    positions, normals, links, pieces = zip(*found, strict=True) if found else ((), (), (), ())
     return Contacts(
-        np.array(positions), np.array(normals), np.array(links, dtype=np.int64), np.array(pieces, dtype=np.int64)
+        np.array(positions).reshape(-1, 3),
+        np.array(normals).reshape(-1, 3),
+        np.array(links, dtype=np.int64),
+        np.array(pieces, dtype=np.int64),
     )
 
 

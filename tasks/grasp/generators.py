@@ -1,21 +1,8 @@
 """Candidate generators: where the planner's states come from, registered in one place (``GENERATORS``).
 
-Each generator maps (object model, search space, parameters, random generator) to ``Proposal`` s, states of the one
-search space (``planner.SearchSpace``) to execute; ``tasks.grasp.api.plan_on_model`` executes them all and ranks
-the grasps together. A generator proposes nothing where its mechanism does not apply.
-
-- ``annealed``: the best unique states of simulated annealing under the contact energy (``planner.anneal``), a
-  chain from the demonstrated palm per start spread: GraspIt!'s online eigengrasp planner.
-- ``demonstrated``: the demonstrated palm itself, held back 20 mm and rolled ±15°, at three spreads: what the
-  demonstrator did, which the energy does not always rank first.
-- ``along the bar``: on a part with a bar (``ObjectModel.cylinder``), the demonstrated palm slid 25 or 50 mm either
-  way along it: a bar is held anywhere along it, and the demonstrated place may be where a post or the fingers'
-  sweep into the plate behind it gets in the way.
-- ``pinch``: on a mounted part, the demonstrated palm held back 60-100 mm, rolled 0 or ±15°, the fingertips alone
-  closing on the part: fingers curled round a bar reach 45 mm or more in front of the palm, so on a bar 20-50 mm
-  before its plate they meet the plate and cannot squeeze; the open fingertips close 80-100 mm in front of it.
-- ``square pinch``: on a part with a bar, the same pinch with the palm square to the bar (its approach at right
-  angles to the axis): tilted fingertips meet a round bar at different heights and a squeeze rolls it out of them.
+Each maps (object model, search space, parameters, random generator) to ``Proposal`` s, states of the one search
+space (``planner.SearchSpace``); ``tasks.grasp.api.plan_on_model`` executes them all and ranks the grasps together.
+A generator proposes nothing where its mechanism does not apply.
 """
 
 from __future__ import annotations
@@ -58,18 +45,20 @@ def _at(spread: float, d: float, roll: float = 0.0, u: float = 0.0, v: float = 0
 
 
 def annealed(model: ObjectModel, space: SearchSpace, params: PlannerParams, rng: np.random.Generator) -> list[Proposal]:
-    """The best unique states of ``params.chains`` annealing chains from the demonstrated palm."""
+    """GraspIt!'s online eigengrasp planner: the best unique states of ``params.chains`` annealing chains from the
+    demonstrated palm under the contact energy (``planner.anneal``)."""
     best = BestList(params.candidates, space.upper - space.lower)
     d0 = float(np.clip(space.pivot_m, *params.distance_range_m))
     starts = np.array([[a1, -1.0, d0, 0.0, 0.0, 0.0, 0.0, 0.0] for a1 in CHAIN_SPREADS[: params.chains]])
-    anneal(lambda x: state_energy(model, space, x), starts, space, rng, params.steps, best, params.schedule)
+    anneal(lambda x: state_energy(model, space, x), starts, space, rng, params.steps, best)
     return [Proposal("annealed", x, params.approach_max_m) for _, x in best.states]
 
 
 def demonstrated(
     model: ObjectModel, space: SearchSpace, params: PlannerParams, rng: np.random.Generator
 ) -> list[Proposal]:
-    """The demonstrated palm, held back ``HOLD_BACK_M`` and rolled ``ROLLS_RAD``, at ``SPREADS_RAD``."""
+    """The demonstrated palm, held back ``HOLD_BACK_M`` and rolled ``ROLLS_RAD``, at ``SPREADS_RAD``: what the
+    demonstrator did, which the energy does not always rank first."""
     del model, rng
     return [
         Proposal("demonstrated", _at(spread, space.pivot_m + back, roll), params.approach_max_m)
@@ -88,7 +77,8 @@ def along_the_bar(
 ) -> list[Proposal]:
     """The demonstrated palm slid ``SLIDES_M`` either way along the bar (its axis taken across the approach), at
     the pivot and held back, at ``TIP_SPREADS_RAD``, closed where it is; none when the bar points within 60° of the
-    approach (sliding would move the palm onto the part)."""
+    approach (sliding would move the palm onto the part). A bar is held anywhere along it, and the demonstrated place
+    may be where a post or the fingers' sweep into the plate behind it gets in the way."""
     del rng, params
     axis = _bar_axis(model)
     if axis is None:
@@ -108,7 +98,8 @@ def along_the_bar(
 
 def pinch(model: ObjectModel, space: SearchSpace, params: PlannerParams, rng: np.random.Generator) -> list[Proposal]:
     """On a mounted part: the demonstrated palm held back ``TIP_DISTANCES_M`` from the pivot, rolled ``ROLLS_RAD``,
-    at ``TIP_SPREADS_RAD``, closed where it is."""
+    at ``TIP_SPREADS_RAD``, closed where it is: fingers curled round a bar reach 45 mm or more in front of the palm,
+    so on a bar 20-50 mm before its plate they meet the plate; the open fingertips close 80-100 mm in front of it."""
     del rng, params, space
     if model.mount is None:
         return []
@@ -125,7 +116,8 @@ def square_pinch(
 ) -> list[Proposal]:
     """On a part with a bar: palms square to the bar, +x along it, through its axis where it passes nearest the
     demonstrated palm, ``TIP_DISTANCES_M`` from its surface, at ``TIP_SPREADS_RAD``, closed where they are; those
-    outside the search space left out."""
+    outside the search space left out: tilted fingertips meet a round bar at different heights and a squeeze rolls it
+    out of them."""
     del rng, params
     axis = _bar_axis(model)
     if axis is None or model.cylinder is None:

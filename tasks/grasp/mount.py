@@ -1,15 +1,14 @@
 """The mount behind a grasped part: the face a handle, a lever or a knob stands on (a door leaf, an oven door).
 
-A grasp is planned on the part the hand reaches for; the face that part is fixed to is only an obstacle. Counted
-as part of the object, it gives fingertips resting on it a share in the grasp: a planned force closure whose
-fingertips pressed on a door's leaf behind its lever pushed the part away as soon as it was a free body (the
-shake test), and held the lever by nothing. The mount is found as one of the largest planes of the object model
-(scikit-learn's ``RANSACRegressor``, depth along the approach as a linear function of the two coordinates across
-it: seeded, so the same scan gives the same mount; open3d's ``segment_plane`` runs in threads and gave another
-plane under load) that faces the hand (its normal within ``MAX_TILT_RAD`` of the approach
-axis), is wider than the hand (``MIN_SPAN_M``), is not a strip (``MIN_WIDTH_M``) and lies at least
-``MIN_DEPTH_M`` behind the surface nearest the palm along the approach (something stands in front of it: the
-part). A box face or a cylinder the palm meets first is never a mount. World frame, metres.
+A grasp is planned on the part the hand reaches for; the face that part is fixed to is only an obstacle. Counted as part
+of the object, it gives fingertips resting on it a share in the grasp: a planned force closure whose fingertips pressed
+on a door's leaf behind its lever pushed the part away as soon as it was a free body (the shake test), and held the
+lever by nothing. The mount is found as one of the largest planes of the object model (scikit-learn's
+``RANSACRegressor``, depth along the approach as a linear function of the two coordinates across it: seeded, so the same
+scan gives the same mount) that faces the hand (its normal within ``MAX_TILT_RAD`` of the approach axis), is wider than
+the hand (``MIN_SPAN_M``), is not a strip (``MIN_WIDTH_M``) and lies at least ``MIN_DEPTH_M`` behind the surface nearest
+the palm along the approach (something stands in front of it: the part). A box face or a cylinder the palm meets first
+is never a mount. World frame, metres.
 """
 
 from __future__ import annotations
@@ -20,6 +19,7 @@ import numpy as np
 from sklearn.linear_model import RANSACRegressor
 
 from tasks.arrays import BoolArray, FloatArray, Points, Vector3
+from tasks.fit.geometry import perpendicular_basis
 
 PLANE_TOLERANCE_M = 0.003
 """Points within 3 mm of the plane are on it (a scan's noise and its 4 mm voxels)."""
@@ -93,12 +93,9 @@ def _is_mount(points: Points, on: BoolArray, normal: Vector3, axis: Vector3, dep
     return float(wide) >= MIN_SPAN_M and float(narrow) >= MIN_WIDTH_M
 
 
-def in_plane(normal: Vector3) -> np.ndarray:
-    """(3, 2) two unit vectors spanning the plane of ``normal``."""
-    helper = np.array([1.0, 0.0, 0.0]) if abs(float(normal[0])) < 0.9 else np.array([0.0, 1.0, 0.0])
-    u = np.cross(normal, helper)
-    u /= float(np.linalg.norm(u))
-    return np.stack([u, np.cross(normal, u)], axis=1)
+def in_plane(normal: Vector3) -> FloatArray:
+    """(3, 2) two unit vectors spanning the plane of ``normal`` (``tasks.fit.geometry.perpendicular_basis``)."""
+    return np.stack(perpendicular_basis(normal), axis=1)
 
 
 def ransac_plane(uv: Points, depth: FloatArray, tolerance_m: float, trials: int, seed: int) -> RANSACRegressor | None:

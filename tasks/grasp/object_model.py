@@ -1,16 +1,14 @@
 """The object to grasp, built from the descriptor's object model point cloud (metres, world frame).
 
-Collision geometry: the cloud is split by k-means into compact clusters and each cluster becomes one convex
-piece, the hull of its points and of the same points pushed 5 mm inwards along their normals (so a patch of a
-flat face still has thickness). The pieces are the links of one pybullet body (fixed joints). Small convex
-pieces keep concave shapes concave (the gap behind a door handle stays open), which one convex hull would fill,
-and unlike a triangle mesh they also work for a free (dynamic) body in the shake test. Normals are the
-PCA normals of the k nearest neighbours, oriented by propagation along a minimum spanning tree (Hoppe et al.;
-open3d's tangent-plane orientation does the same but took 0.7 s on 1300 points
-here, this 20 ms). A box or cylinder replaces the pieces when it explains the points (``build_object_model``,
-``tasks.grasp.primitive_fit``) or when it is known (the true shape of a test object); on a part with a mount, the
-bar found in it (``tasks.grasp.part_cylinders``) is one exact piece, a 64-sided prism, beside the convex pieces of
-the rest.
+Collision geometry: the cloud is split by k-means into compact clusters and each cluster becomes one convex piece, the
+hull of its points and of the same points pushed 5 mm inwards along their normals (so a patch of a flat face still has
+thickness). The pieces are the links of one pybullet body (fixed joints). Small convex pieces keep concave shapes
+concave (the gap behind a door handle stays open), which one convex hull would fill, and unlike a triangle mesh they
+also work for a free (dynamic) body in the shake test. Normals are the PCA normals of the k nearest neighbours, oriented
+by propagation along a minimum spanning tree (Hoppe et al.). A box or cylinder replaces the pieces when it explains the
+points (``build_object_model``, ``tasks.grasp.primitive_fit``) or when it is known (the true shape of a test object); on
+a part with a mount, the bar found in it (``tasks.grasp.part_cylinders``) is one exact piece, a 64-sided prism, beside
+the convex pieces of the rest.
 """
 
 from __future__ import annotations
@@ -31,8 +29,7 @@ from tasks.errors import GraspError
 from tasks.grasp.cap import find_cap
 from tasks.grasp.mount import find_mount
 from tasks.grasp.part_cylinders import find_cylinder, prism_vertices
-from tasks.grasp.primitive_fit import TOLERANCE_M, fit_primitive, surface_distance, within
-from tasks.grasp.primitive_shape import MIN_POINTS, PrimitiveShape
+from tasks.grasp.primitive_fit import MIN_POINTS, TOLERANCE_M, PrimitiveShape, fit_primitive, surface_distance, within
 
 INWARD_OFFSET_M = 0.005
 """Thickness given to each surface patch of the point cloud, metres."""
@@ -92,10 +89,7 @@ class ObjectModel:
 
     def is_mount_piece(self, piece: npt.NDArray[np.int64]) -> BoolArray:
         """(m,) whether each convex piece index (into ``parts``) belongs to the mount."""
-        index = np.asarray(piece)
-        if not self.mount_parts:
-            return np.zeros(len(index), dtype=bool)
-        out: BoolArray = index >= len(self.parts) - self.mount_parts
+        out: BoolArray = (np.asarray(piece) >= len(self.parts) - self.mount_parts) & (self.mount_parts > 0)
         return out
 
     def without_mount(self) -> ObjectModel:
@@ -155,7 +149,7 @@ def estimate_normals(points: Points, k: int = 16, viewpoint: Vector3 | None = No
     tree of the kNN graph (Hoppe et al. 1992). With ``viewpoint`` (world, m; a place outside the object such as
     the demonstrated palm, from where a digitizer saw it), the points seen from it whose normals face it clearly
     (|cos| > 0.5) are the roots, their normals turned towards it, and the rest follow along the tree from them:
-    one root on a bar handle flipped the whole door face behind it. Without, or for parts the roots do not reach,
+    a single root would flip every normal behind a wrong one. Without, or for parts the roots do not reach,
     the root is the point farthest from the centroid."""
     n = len(points)
     k = min(k, n)
@@ -356,9 +350,8 @@ def solid_pieces(points: Points, normals: Points, rng: np.random.Generator) -> t
     (``_part_pieces``): per connected group (``GROUP_SPACINGS``), the group's hull thickened inwards as one solid
     piece when its points lie on that hull (``_on_hull``: a handle's post), else its k-means pieces
     (``convex_parts``: a lever's rose and neck). A scan sees a post's faces, not its inside: cut into k-means
-    patches, each 5 mm thick, the microwave handle's posts (boxes of 28 cm³) weighed about 15 cm³ in the hold
-    check and let a grasp hold that turned the exact handle 10°; groups of fewer than ``MIN_PIECE_POINTS`` points
-    are left out."""
+    patches, each 5 mm thick, a post would weigh half its volume in the hold check. Groups of fewer than
+    ``MIN_PIECE_POINTS`` points are left out."""
     tree = cKDTree(points)
     spacing = float(np.median(tree.query(points, k=2)[0][:, 1]))
     pairs = tree.query_pairs(GROUP_SPACINGS * spacing, output_type="ndarray")

@@ -11,7 +11,7 @@ approach (along the demonstrated palm's x and y). Bounds (``PlannerParams``): am
 distance to the object plus the misalignment of their normals with the surface's, in mm; a state whose hand
 surface enters the object is illegal.
 
-**Loop** (``anneal``): simulated annealing with GraspIt!'s online schedule (``Schedule``; Ingber's neighbour
+**Loop** (``anneal``): simulated annealing with GraspIt!'s online schedule (``temperature``; Ingber's neighbour
 draws), a chain of ``steps`` per start; every state evaluated is offered to a **list of the best unique states**
 (``BestList``: the lowest energies, each differing from the others by a tenth of the search range in some variable).
 """
@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -42,27 +42,19 @@ UNIQUE_FRACTION = 0.1
 """Two states are the same grasp when every variable differs by less than this fraction of its range."""
 
 
-@dataclass(frozen=True)
-class Schedule:
-    """GraspIt!'s online annealing constants (T0, start step, neighbour and acceptance constants, error scale):
-    T_n(k) = T0 exp(-0.24 k^(1/2)), T_a(k) = T0 exp(-0.54 k^(1/3)), a worse state accepted with probability
-    exp(-(E_new - E_old) 0.01 / T_a)."""
+T0 = 10.0
+K0 = 100
+NEIGHBOUR_C, NEIGHBOUR_D = 0.24, 2.0
+ACCEPT_C, ACCEPT_D = 0.54, 3.0
+ERROR_SCALE = 0.01
+"""GraspIt!'s online annealing schedule from step ``K0``: neighbour temperature T_n(k) = T0 exp(-0.24 k^(1/2)),
+acceptance temperature T_a(k) = T0 exp(-0.54 k^(1/3)), a worse state accepted with probability
+exp(-(E_new - E_old) 0.01 / T_a)."""
 
-    t0: float = 10.0
-    k0: int = 100
-    neighbour_c: float = 0.24
-    neighbour_d: float = 2.0
-    accept_c: float = 0.54
-    accept_d: float = 3.0
-    error_scale: float = 0.01
 
-    def neighbour_temperature(self, k: int) -> float:
-        """T_n(k) = T0 exp(-c k^(1/d))."""
-        return self.t0 * math.exp(-self.neighbour_c * k ** (1.0 / self.neighbour_d))
-
-    def accept_temperature(self, k: int) -> float:
-        """T_a(k) = T0 exp(-c k^(1/d))."""
-        return self.t0 * math.exp(-self.accept_c * k ** (1.0 / self.accept_d))
+def temperature(k: int, c: float, d: float) -> float:
+    """GraspIt!'s cooling at step k: T0 exp(-c k^(1/d))."""
+    return T0 * math.exp(-c * k ** (1.0 / d))
 
 
 @dataclass(frozen=True)
@@ -78,7 +70,6 @@ class PlannerParams:
     steps: int = 400
     chains: int = 4
     candidates: int = 12
-    schedule: Schedule = field(default_factory=Schedule)
     amplitude_limit: float = barrett.AMPLITUDE_LIMIT
     distance_range_m: tuple[float, float] = (-0.03, 0.20)
     angle_limit_rad: float = math.radians(30.0)
@@ -218,25 +209,23 @@ def anneal(  # noqa: PLR0917 -- the annealing inputs, named at call sites
     rng: np.random.Generator,
     steps: int,
     best: BestList,
-    schedule: Schedule | None = None,
 ) -> None:
     """One annealing chain of ``steps`` from each of ``starts`` (c, 8) within the space's bounds, the chains side by
     side (one call of the batched ``energy`` per step), each drawing its own numbers in turn; then every state of
     chain 0, of chain 1, ... offered to ``best``. A neighbour moves each variable by half the range times an Ingber
     draw at the neighbour temperature."""
-    sched = schedule or Schedule()
     jump = (space.upper - space.lower) / 2.0
     x = np.clip(np.asarray(starts, dtype=np.float64), space.lower, space.upper)
     draws = np.stack([rng.random((steps, x.shape[1] + 1)) for _ in x])
     e = energy(x)
     seen, seen_e = [x], [e]
     for k in range(steps):
-        move = ingber_from_uniforms(sched.neighbour_temperature(k + sched.k0), draws[:, k, :-1])
+        move = ingber_from_uniforms(temperature(k + K0, NEIGHBOUR_C, NEIGHBOUR_D), draws[:, k, :-1])
         y = np.clip(x + jump * move, space.lower, space.upper)
         e_new = energy(y)
         seen.append(y)
         seen_e.append(e_new)
-        worse = (e_new - e) * sched.error_scale / sched.accept_temperature(k + sched.k0)
+        worse = (e_new - e) * ERROR_SCALE / temperature(k + K0, ACCEPT_C, ACCEPT_D)
         take = (e_new < e) | ((e_new < ILLEGAL_ENERGY) & (draws[:, k, -1] < np.exp(-np.minimum(worse, 700.0))))
         x, e = np.where(take[:, None], y, x), np.where(take, e_new, e)
     for chain_x, chain_e in zip(np.stack(seen, axis=1), np.stack(seen_e, axis=1), strict=True):

@@ -11,7 +11,8 @@ palm is held by a fixed constraint that follows the program (``ShakeParams.gravi
 gravity in each direction one phase after another, each phase settling 0.5 s, then the motions, translations or
 turns of the palm about an axis through it (``Motion``). The grasp holds when the part's pose relative to the palm
 moves less than ``max_shift_m`` and ``max_turn_rad`` from where it settled; the test stops as soon as either is
-exceeded.
+exceeded. ``hold_check`` is the planner's program, run on its own object model before ``tasks.grasp.api`` chooses a
+grasp.
 """
 
 from __future__ import annotations
@@ -117,31 +118,17 @@ def grip(  # noqa: PLR0917 -- pybullet client, model, palm pose, spread, setting
         pb.removeBody(obj, physicsClientId=client)
         obj = load_object(client, part_only, mass_kg=prm.mass_kg, friction=prm.friction)
     squeeze = np.where(blocked, 0.0, prm.squeeze_rad)
-    target_prox = np.minimum(closed[1:4] + squeeze, barrett.DOF_UPPER[1:])
-    target_dist = np.minimum(closed[4:7] + squeeze, barrett.DISTAL_UPPER)
+    prox = np.minimum(closed[1:4] + squeeze, barrett.DOF_UPPER[1:])
+    dist = np.minimum(closed[4:7] + squeeze, barrett.DISTAL_UPPER)
     barrett.drive_dofs(
-        client,
-        hand,
-        np.concatenate([[closed[0]], target_prox]),
-        max_torque_nm=prm.squeeze_torque_nm,
-        distal=target_dist,
+        client, hand, np.concatenate([[closed[0]], prox]), max_torque_nm=prm.squeeze_torque_nm, distal=dist
     )
     for joint in barrett.SPREAD_JOINTS:
         pb.setJointMotorControl2(
             hand, joint, pb.POSITION_CONTROL, targetPosition=float(closed[0]), force=20.0, physicsClientId=client
         )
-    anchor = pb.createConstraint(
-        hand,
-        -1,
-        -1,
-        -1,
-        pb.JOINT_FIXED,
-        [0, 0, 0],
-        [0, 0, 0],
-        pos.tolist(),
-        childFrameOrientation=quat.tolist(),
-        physicsClientId=client,
-    )
+    fixed = (hand, -1, -1, -1, pb.JOINT_FIXED, [0, 0, 0], [0, 0, 0], pos.tolist())
+    anchor = pb.createConstraint(*fixed, childFrameOrientation=quat.tolist(), physicsClientId=client)
     pb.changeConstraint(anchor, pos.tolist(), quat.tolist(), maxForce=5000.0, physicsClientId=client)
     return hand, obj, anchor
 
@@ -221,3 +208,50 @@ def _squeezed_contacts(client: int, hand: int, obj: int, start: tuple[object, ob
         return np.zeros((0, 3)), np.zeros((0, 3))
     positions = back.apply(contacts.positions - np.asarray(end_pos)) + np.asarray(start[0])
     return np.asarray(positions, dtype=np.float64).reshape(-1, 3), back.apply(contacts.normals_in).reshape(-1, 3)
+
+
+CHECK_TILT_RAD = math.radians(30.0)
+CHECK_PEAK_MS2 = 6.5
+CHECK_FREQUENCY_HZ = 3.0
+CHECK_TURN_RAD = math.radians(7.5)
+CHECK_TURN_HZ = 2.0
+CHECK_CYCLES = 1.0
+"""``hold_check``'s program: gravity tilt (rad), translation peak acceleration (m/s²) and frequency (Hz), palm
+turn amplitude (rad) and frequency (Hz), cycles of each motion (whole cycles: A (1 - cos ωt) ends where it
+began)."""
+
+
+CHECK_LENGTH_S = 3 * (0.5 + CHECK_CYCLES * (3 / CHECK_FREQUENCY_HZ + 1 / CHECK_TURN_HZ))
+"""Simulated length of ``hold_check`` (s): three gravity phases, each 0.5 s settling then the four motions (6 s)."""
+CHECK_SHIFT_M = 0.005
+CHECK_TURN_TOL_RAD = math.radians(5.0)
+"""``hold_check`` fails a grasp whose part moved 5 mm or turned 5° in the hand: half the slip a longer, harsher
+shake allows (10 mm, 10°), since slip that starts in a short check goes on in a longer one."""
+
+
+def hold_check(palm_quat_xyzw: FloatArray) -> ShakeParams:
+    """The planner's hold check for a grasp whose palm has orientation ``palm_quat_xyzw`` (world [x, y, z, w]):
+    gravity world down, then tilted 30° towards either end of the palm's x axis (the axis of a bar the fingers
+    close round: a lever slides along it) laid horizontal, or of its y axis when x is near vertical; in each
+    phase translations along world x, y and z with 6.5 m/s² peaks at 3 Hz and a turn of the palm of 7.5° about
+    the world diagonal at 2 Hz, one cycle each (6 s in all), within 5 mm and 5°. Run on the planner's own
+    object model. The tilts and the palm turn load a fingertip grasp along and about the bar, the directions it
+    slips in, which world gravity and translations alone do not."""
+    rot = Rotation.from_quat(palm_quat_xyzw).as_matrix()
+    down = np.array([0.0, 0.0, -1.0])
+    side = rot[:, 0] - float(rot[:, 0] @ down) * down
+    if float(np.linalg.norm(side)) < 0.3:
+        side = rot[:, 1] - float(rot[:, 1] @ down) * down
+    side = side / float(np.linalg.norm(side))
+    gravity = [(0.0, 0.0, -9.81)]
+    for sign in (1.0, -1.0):
+        g = 9.81 * (math.cos(CHECK_TILT_RAD) * down + sign * math.sin(CHECK_TILT_RAD) * side)
+        gravity.append((float(g[0]), float(g[1]), float(g[2])))
+    amplitude = CHECK_PEAK_MS2 / (2.0 * math.pi * CHECK_FREQUENCY_HZ) ** 2
+    axes = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+    motions = [Motion(a, amplitude, CHECK_FREQUENCY_HZ, CHECK_CYCLES) for a in axes]
+    diagonal = 1.0 / math.sqrt(3.0)
+    motions.append(Motion((diagonal, diagonal, diagonal), CHECK_TURN_RAD, CHECK_TURN_HZ, CHECK_CYCLES, turn=True))
+    return ShakeParams(
+        max_shift_m=CHECK_SHIFT_M, max_turn_rad=CHECK_TURN_TOL_RAD, gravity=tuple(gravity), motions=tuple(motions)
+    )

@@ -9,8 +9,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from tasks.grasp.api import plan_grasp
-from tasks.grasp.hold_check import hold_check
-from tasks.grasp.shake import shake_test
+from tasks.grasp.shake import hold_check, shake_test
 from tasks.scenes.catalog import build_scene
 from tests.grasp.cases.exact import exact_model, handle_shapes, hull_vertices
 from tests.grasp.cases.grasp import grasped_shapes, handle_on_plate, scene_cases

@@ -8,10 +8,9 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from tasks.grasp.api import plan_grasp
-from tasks.grasp.hold_check import hold_check
 from tasks.grasp.object_model import build_object_model
-from tasks.grasp.primitive_shape import PrimitiveShape
-from tasks.grasp.shake import shake_test
+from tasks.grasp.primitive_fit import PrimitiveShape
+from tasks.grasp.shake import hold_check, shake_test
 from tests.grasp.cases.exact import primitive_model
 from tests.grasp.cases.grasp import handle_on_plate
 from tests.grasp.surface_sampling import sample_box_surface, sample_cylinder_surface

@@ -8,10 +8,9 @@ from scipy.spatial.transform import Rotation
 
 from schemas.descriptor import Grasp
 from tasks.arrays import Points
-from tasks.grasp.hold_check import hold_check
 from tasks.grasp.mount import find_mount
 from tasks.grasp.object_model import ObjectModel, build_object_model
-from tasks.grasp.shake import shake_test
+from tasks.grasp.shake import hold_check, shake_test
 from tests.grasp.cases.exact import labelled_model
 from tests.grasp.surface_sampling import sample_box_surface, sample_cylinder_surface
 

@@ -13,20 +13,23 @@ from tasks.arrays import Points
 from tasks.grasp.api import plan_grasp, plan_on_model
 from tasks.grasp.execution import grasp_from_candidate
 from tasks.grasp.generators import GENERATORS
-from tasks.grasp.hold_check import hold_check
 from tasks.grasp.object_model import build_object_model
 from tasks.grasp.planner import (
+    ACCEPT_C,
+    ACCEPT_D,
     ILLEGAL_ENERGY,
+    NEIGHBOUR_C,
+    NEIGHBOUR_D,
     BestList,
     PlannerParams,
-    Schedule,
     anneal,
     contact_energy,
     ingber_from_uniforms,
     search_space,
     state_energy,
+    temperature,
 )
-from tasks.grasp.shake import shake_test
+from tasks.grasp.shake import hold_check, shake_test
 from tasks.hand import barrett
 from tests.grasp.cases.exact import labelled_model
 from tests.grasp.cases.grasp import PLATE_POINTS, handle_on_plate
@@ -35,9 +38,8 @@ from .conftest import HANDLE_CENTER, PALM_DOWN
 
 
 def test_graspit_online_schedule() -> None:
-    s = Schedule()
-    assert s.neighbour_temperature(100) == pytest.approx(10.0 * math.exp(-0.24 * 10.0))
-    assert s.accept_temperature(1000) == pytest.approx(10.0 * math.exp(-0.54 * 10.0))
+    assert temperature(100, NEIGHBOUR_C, NEIGHBOUR_D) == pytest.approx(10.0 * math.exp(-0.24 * 10.0))
+    assert temperature(1000, ACCEPT_C, ACCEPT_D) == pytest.approx(10.0 * math.exp(-0.54 * 10.0))
     draws = ingber_from_uniforms(0.05, np.random.default_rng(0).random(10000))
     assert np.all(np.abs(draws) < 1.0)
     # |y| = T((1 + 1/T)^v - 1) with v uniform: the median is at v = 1/2; cold draws are small with a heavy tail

@@ -15,13 +15,13 @@ from tasks.grasp.primitive_fit import (
     RMS_FRACTION,
     TOLERANCE_M,
     PrimitiveFit,
+    PrimitiveShape,
     fit_box,
     fit_cylinder,
     fit_primitive,
     surface_distance,
     tolerance,
 )
-from tasks.grasp.primitive_shape import PrimitiveShape
 from tests.grasp.surface_sampling import sample_box_surface, sample_cylinder_surface
 
 NOISE_M = 0.0003

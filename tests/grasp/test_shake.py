@@ -8,9 +8,8 @@ import numpy as np
 import pytest
 
 from schemas.descriptor import Grasp
-from tasks.grasp.hold_check import hold_check
 from tasks.grasp.object_model import ObjectModel, build_object_model
-from tasks.grasp.shake import Motion, ShakeParams, shake_test
+from tasks.grasp.shake import Motion, ShakeParams, hold_check, shake_test
 from tests.grasp.surface_sampling import sample_box_surface
 
 from .conftest import PALM_DOWN

@@ -14,7 +14,7 @@ from scipy.spatial.transform import Rotation
 from tasks.arrays import Points, Vector3
 from tasks.grasp.object_model import ObjectModel, estimate_normals, mounted_model, voxel_downsample
 from tasks.grasp.part_cylinders import prism_vertices
-from tasks.grasp.primitive_shape import PrimitiveShape
+from tasks.grasp.primitive_fit import PrimitiveShape
 from tasks.scenes.surface import WorldShape, sample_shapes
 
 SPHERE_VERTICES = 400

@@ -14,7 +14,7 @@ from scipy.spatial.transform import Rotation
 
 from tasks.arrays import Points
 from tasks.grasp.object_model import ObjectModel
-from tasks.grasp.primitive_shape import PrimitiveShape
+from tasks.grasp.primitive_fit import PrimitiveShape
 from tasks.scenes.surface import WorldShape, sample_shapes
 from tests.grasp.cases.exact import exact_model, primitive_model
 from tests.grasp.cases.grasp import Case, palm_seed

@@ -16,7 +16,7 @@ from scipy.spatial.transform import Rotation
 from tasks.arrays import Points
 from tasks.grasp.api import part_near
 from tasks.grasp.object_model import ObjectModel, build_object_model
-from tasks.grasp.primitive_shape import PrimitiveShape
+from tasks.grasp.primitive_fit import PrimitiveShape
 from tasks.grasp.shake import Motion, ShakeParams
 from tasks.scenes.scene import Scene
 from tasks.scenes.surface import WorldShape, model_shapes, sample_shapes
