@@ -145,7 +145,8 @@ def contact_energy(model: ObjectModel, rot: FloatArray, pos: Vector3, joints: Fl
     tfs = barrett.link_transforms(joints)
     vc_pos, vc_dir = barrett.VIRTUAL_CONTACTS.in_palm(tfs)
     surf_pos, _ = barrett.SURFACE_SAMPLES.in_palm(tfs)
-    surf_world = np.einsum("cij,cmj->cmi", rot, surf_pos) + pos[:, None, :]
+    turn = np.swapaxes(rot, 1, 2)  # row vectors times rot^T: each hand's palm frame into the world
+    surf_world = surf_pos @ turn + pos[:, None, :]
     inside_box = np.all((surf_world > model.lower) & (surf_world < model.upper), axis=2)
     probe = surf_world[inside_box]
     illegal = np.zeros(len(rot), dtype=bool)
@@ -153,8 +154,8 @@ def contact_energy(model: ObjectModel, rot: FloatArray, pos: Vector3, joints: Fl
         _, idx = model.tree.query(probe)
         signed = np.einsum("ij,ij->i", probe - model.points[idx], model.normals[idx])
         illegal[np.nonzero(inside_box)[0][signed < -PENETRATION_TOL_M]] = True
-    dist, idx = model.tree.query(np.einsum("cij,cmj->cmi", rot, vc_pos) + pos[:, None, :])
-    align = 1.0 + np.einsum("cmi,cmi->cm", model.normals[idx], np.einsum("cij,cmj->cmi", rot, vc_dir))  # 1 - n_in · p
+    dist, idx = model.tree.query(vc_pos @ turn + pos[:, None, :])
+    align = 1.0 + np.einsum("cmi,cmi->cm", model.normals[idx], vc_dir @ turn)  # 1 - n_in · p
     return np.where(illegal, ILLEGAL_ENERGY, np.mean(1000.0 * dist + NORMAL_WEIGHT_MM * align, axis=1))
 
 
@@ -226,7 +227,7 @@ def anneal(  # noqa: PLR0917 -- the annealing inputs, named at call sites
         seen.append(y)
         seen_e.append(e_new)
         worse = (e_new - e) * ERROR_SCALE / temperature(k + K0, ACCEPT_C, ACCEPT_D)
-        take = (e_new < e) | ((e_new < ILLEGAL_ENERGY) & (draws[:, k, -1] < np.exp(-np.minimum(worse, 700.0))))
+        take = (e_new < e) | ((e_new < ILLEGAL_ENERGY) & (draws[:, k, -1] < np.exp(-np.clip(worse, 0.0, 700.0))))
         x, e = np.where(take[:, None], y, x), np.where(take, e_new, e)
     for chain_x, chain_e in zip(np.stack(seen, axis=1), np.stack(seen_e, axis=1), strict=True):
         for state, energy_mm in zip(chain_x, chain_e, strict=True):

@@ -25,6 +25,7 @@ Barrett eigengrasps onto them.
 from __future__ import annotations
 
 import hashlib
+import itertools
 import math
 import os
 import tempfile
@@ -332,11 +333,16 @@ class LinkPoints:
     normal: Points
 
     def in_palm(self, transforms: FloatArray) -> tuple[Points, Points]:
-        """Positions and directions (..., m, 3) in the palm frame for ``link_transforms`` output (..., 10, 4, 4)."""
-        tf = transforms[..., self.link, :, :]
-        pos = np.einsum("...mij,mj->...mi", tf[..., :3, :3], self.local) + tf[..., :3, 3]
-        nrm = np.einsum("...mij,mj->...mi", tf[..., :3, :3], self.normal)
-        return pos, nrm
+        """Positions and directions (..., m, 3) in the palm frame for ``link_transforms`` output (..., 10, 4, 4),
+        one link's run of points at a time."""
+        starts = np.concatenate([[0], np.flatnonzero(np.diff(self.link)) + 1, [len(self.link)]])
+        pos, nrm = [], []
+        for a, b in itertools.pairwise(starts):
+            tf = transforms[..., self.link[a], :, :]
+            turn = np.swapaxes(tf[..., :3, :3], -1, -2)
+            pos.append(self.local[a:b] @ turn + tf[..., None, :3, 3])
+            nrm.append(self.normal[a:b] @ turn)
+        return np.concatenate(pos, axis=-2), np.concatenate(nrm, axis=-2)
 
 
 def _virtual_contacts() -> LinkPoints:
