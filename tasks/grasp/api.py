@@ -1,25 +1,14 @@
 """Grasp planning entry points used by the learn stage (``G`` of the descriptor, DESCRIPTOR.md).
 
-The demonstrator's wrist tracker pose (world frame, metres, quaternion [x, y, z, w]) is turned into a seed palm
-pose through the sensor-to-palm offset (``seed.py``). ``plan_on_model`` is the planner, one search:
+``plan_on_model`` is the planner, one search (docs/grasp.md): every generator of ``generators.GENERATORS`` proposes
+states of one search space around the demonstrated palm (``planner.SearchSpace``), each is executed as the robot
+executes a grasp (``execution.py``), the grasps are ranked once (``rank``) and, in that order, those that survive a
+robot's wrist error (``execution.robust``) are shaken by the hold check within one time budget (``choose``).
 
-1. every generator of ``generators.GENERATORS`` proposes states of one search space around the demonstrated palm
-   (``planner.SearchSpace``; the annealing's best unique states among them);
-2. each is executed as the robot executes a grasp (``execution.py``) and the grasps are ranked once: force closure
-   first, then closeness to the demonstration (``rank``);
-3. in that order, grasps that survive the wrist pose error of a robot (``execution.robust``: closed with the palm
-   displaced by millimetres and degrees, the same fingers still reach the part) are
-   shaken by the hold check (``hold_check``, on the planner's own object model) within
-   one time budget (``PlannerParams.hold_checks`` whole checks of simulated time): the first that holds firmly with
-   a force closure, static or once the fingers have squeezed it, is the plan (``choose``).
-
-``Grasp.wrist_*`` is the pose of the hand base (palm) frame of ``barrett.py`` in the world, +z the approach
-direction; ``Grasp.eigengrasps`` (a1, a2) is the posture the hand closes towards: execute by opening the hand at
-spread 1.13 + a1 (fingers ``barrett.OPEN_FINGER_RAD``), moving the palm along +z to the wrist pose and closing the
-fingers towards a2 (``barrett.CLOSE_AMPLITUDE``: fully) until they stop on the part, as ``tasks.simulate`` and the
-scenes' truth grasps do. ``quality`` holds epsilon, volume, force_closure, the contact count, the friction ``mu``,
-the closed DOFs ``closed_dofs`` [spread, f1, f2, f3] (radians), ``demo_offset_m`` / ``demo_angle_rad``: how far the
-palm lies off the demonstrated approach, and (``plan_grasp``) ``planned_on``.
+``Grasp.wrist_*`` is the palm (hand base) frame of ``barrett.py`` in the world, +z the approach; ``Grasp.eigengrasps``
+(a1, a2) the posture the hand closes towards from the open hand at spread 1.13 + a1, as ``tasks.simulate`` executes it.
+``quality``: epsilon, volume, force_closure, contacts, ``mu``, ``closed_dofs`` [spread, f1, f2, f3] (rad),
+``demo_offset_m`` / ``demo_angle_rad`` from the demonstrated approach.
 """
 
 from __future__ import annotations
@@ -125,20 +114,7 @@ def plan_grasp(
     pos, quat = check_seed(seed_position, seed_quat_xyzw)
     approach = Rotation.from_quat(quat).as_matrix()[:, 2]
     model = build_object_model(object_points, rng, viewpoint=pos, approach=approach)
-    grasp = grasp_from_candidate(plan_on_model(model, seed_position, seed_quat_xyzw, rng, params))
-    return dataclasses.replace(grasp, quality={**grasp.quality, "planned_on": planned_on(model)})
-
-
-def planned_on(model: ObjectModel) -> str:
-    """What a grasp was planned on: ``"box"`` or ``"cylinder"`` (a primitive fitted to the points), ``"cylinder
-    and convex pieces"`` (a mounted part's bar, ``part_cylinders``, the rest of it and its mount in pieces), ``"cap
-    and convex pieces"`` (a cap's cylinder, ``tasks.grasp.cap``, its mount in pieces), else ``"convex pieces"`` (of
-    the points; the part's and its mount's when a mount was found)."""
-    if model.primitive is not None:
-        return model.primitive.kind
-    if model.cap is not None:
-        return "cap and convex pieces"
-    return "cylinder and convex pieces" if model.cylinder is not None else "convex pieces"
+    return grasp_from_candidate(plan_on_model(model, seed_position, seed_quat_xyzw, rng, params))
 
 
 def part_near(points: Points, palm_position: Vector3, radius_m: float = CROP_RADIUS_M) -> Points:

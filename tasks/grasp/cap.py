@@ -1,20 +1,17 @@
 """A cap or knob the palm looks down on: the part is the solid the palm meets first, as far as its sides keep one
 radius; the neck or body it sits on is its mount.
 
-The plane search of ``mount.py`` finds the face a handle or a lever stands on; a bottle's cap stands on a neck 2 mm
-narrower than itself, on a shoulder and a body, none of which is a plane facing the hand. Without a mount the whole scan
-is the free body of the planner's hold check, and fingers that close on the neck hold it there, while on the bottle only
-the cap turns: a palm 10-20 mm further down than the demonstrated one passes such a check with its fingers on the
-neck and drops the cap. Planned on the cap alone (its cylinder one exact piece, ``object_model.mounted_model``) with the
-neck and body as the mount, the check asks what the task needs: that the cap stays in the hand.
+A bottle's cap stands on a neck 2 mm narrower than itself, on a shoulder and a body, none of which is a plane facing the
+hand (``mount.py``). Counted as one free body with the cap, the neck lets fingers that close on it hold in the planner's
+check while on the bottle only the cap turns; planned on the cap alone (one exact piece) with the neck and body as its
+mount, the check asks what the task needs: that the cap stays in the hand.
 
-The top face is the plane most of the points nearest the palm lie on; its normal is the cap's axis (a demonstrated
-approach may be 10° off it) and the middle of its points' extent the cap's centre (their centroid lies off it where the
-sampling is uneven). The side is walked on the points as scanned (voxels average a corner's or a step's two sides), by
-the outermost point of each slab (a sampled model also has a cap's hidden inner faces). Going down the axis in slabs of
-``SLAB_M``, the cap's side lies within ``STEP_M`` of the radius of its rim all round (``SECTORS``); the first slab whose
-outermost points lie inside that radius by more (a neck) or outside it within ``BESIDE_M`` (a shoulder) ends the cap,
-and a side that goes on past ``MAX_HEIGHT_M`` is no cap (a can). World frame, metres.
+The top face is the plane most of the points nearest the palm lie on; its normal is the cap's axis and the middle of its
+points' extent the cap's centre. The side is walked on the points as scanned (voxels average a step's two sides), by the
+outermost point of each slab: going down the axis in slabs of ``SLAB_M``, the cap's side lies within ``STEP_M`` of the
+radius of its rim all round (``SECTORS``); the first slab whose outermost points lie inside that radius by more (a neck)
+or outside it within ``BESIDE_M`` (a shoulder) ends the cap, and a side that goes on past ``MAX_HEIGHT_M`` is no cap (a
+can). World frame, metres.
 """
 
 from __future__ import annotations

@@ -1,8 +1,8 @@
 """Kinematic approach and finger closing in pybullet (GraspIt!'s approachToContact and autoGrasp).
 
-The hand is moved and its joints are reset (no dynamics); contact means a pybullet closest distance below
-``CONTACT_M``. Fingers close one at a time in small steps with bisection to the first contact; when the proximal
-link stops first, the distal link keeps closing alone (the BH8's breakaway), otherwise it stays coupled.
+The hand is moved and its joints are reset (no dynamics); contact means a pybullet closest distance below ``CONTACT_M``.
+Fingers close one at a time in small steps with bisection to the first contact; when the proximal link stops first, the
+distal link keeps closing alone (the BH8's breakaway), otherwise it stays coupled.
 """
 
 from __future__ import annotations

@@ -1,7 +1,6 @@
-"""Executing a search state as the robot executes a grasp (pybullet, DIRECT): the hand open at the state's spread
-(fingers ``barrett.OPEN_FINGER_RAD``, opened wider while they touch the object) at the state's palm pose (moved
-back along the approach while in collision), approached up to 30 mm to contact, fingers closed until blocked
-(``closing.py``); the grasp's epsilon and volume (``quality.py``) and where it lies from the demonstration."""
+"""Executing a search state as the robot executes a grasp (pybullet, DIRECT; ``closing.py``): the open hand at the
+state's palm pose, moved back while in collision, approached to contact, fingers closed until blocked; the grasp's
+quality (``quality.py``) and how far it lies from the demonstration; its robustness to a robot's wrist error."""
 
 from __future__ import annotations
 
@@ -53,12 +52,11 @@ class Proposal:
 
 @dataclass(frozen=True)
 class GraspCandidate:
-    """An executed state: the state x (8,), palm pose (world, after the approach), closed joints (7,) [spread,
+    """An executed state: palm pose (world, after the approach), closed joints (7,) [spread,
     proximal 1-3, distal 1-3] rad, quality, ranking cost ``closeness``, offset (m) from the demonstrated approach
     and angle (rad) from the demonstrated palm, the generator that proposed it (``source``), and the fingers (0-2)
     that touch the part (``fingers``)."""
 
-    state: FloatArray
     position: Vector3
     quat_xyzw: FloatArray
     closed: FloatArray
@@ -130,9 +128,8 @@ def execute_pose(  # noqa: PLR0917 -- pybullet ids, model, pose, spread, params
     quat = Rotation.from_matrix(rot).as_quat()
     for back in np.arange(0.0, back_off_m + 1e-9, BACK_OFF_STEP_M):
         start = pos - back * rot[:, 2]
-        closing.set_pose(client, hand, start, quat)
-        dofs = closing.open_free(client, hand, obj, spread, OPEN_MIN_RAD, PREGRASP_TOL_M)
-        if closing.min_distance(client, hand, obj) >= -PREGRASP_TOL_M:
+        dofs = _opened((client, hand, obj), start, quat, spread)
+        if dofs is not None:
             break
     else:
         return None
@@ -144,6 +141,15 @@ def execute_pose(  # noqa: PLR0917 -- pybullet ids, model, pose, spread, params
     links = contacts.links[on_part]
     fingers = tuple(f for f, pair in enumerate(barrett.FINGER_LINKS) if np.any(np.isin(links, pair)))
     return final, closed, quality, fingers
+
+
+def _opened(ids: tuple[int, int, int], pos: Vector3, quat: FloatArray, spread: float) -> FloatArray | None:
+    """(4,) DOFs of the hand opened at the palm pose (world) in the client ``ids``, wider while it touches the object
+    (``OPEN_MIN_RAD``); None when it is still inside the object by more than ``PREGRASP_TOL_M``."""
+    client, hand, obj = ids
+    closing.set_pose(client, hand, pos, quat)
+    dofs = closing.open_free(client, hand, obj, spread, OPEN_MIN_RAD, PREGRASP_TOL_M)
+    return dofs if closing.min_distance(client, hand, obj) >= -PREGRASP_TOL_M else None
 
 
 @contextmanager
@@ -174,9 +180,7 @@ def execute_states(
             final, closed, quality, fingers = done
             cost, lateral, angle = closeness(space, rot, final, params)
             quat = Rotation.from_matrix(rot).as_quat()
-            out.append(
-                GraspCandidate(x.copy(), final, quat, closed, quality, cost, lateral, angle, prop.source, fingers)
-            )
+            out.append(GraspCandidate(final, quat, closed, quality, cost, lateral, angle, prop.source, fingers))
     return distinct(out)
 
 
@@ -205,11 +209,8 @@ def robust(ids: tuple[int, int, int], model: ObjectModel, cand: GraspCandidate, 
     client, hand, obj = ids
     spread = float(cand.closed[0])
     poses = displaced_poses(Rotation.from_quat(cand.quat_xyzw).as_matrix(), cand.position)
-    for rot_d, pos_d in poses:  # the open hand alone first: cheap, and where a pose pressed into the part fails
-        closing.set_pose(client, hand, pos_d, Rotation.from_matrix(rot_d).as_quat())
-        closing.open_free(client, hand, obj, spread, OPEN_MIN_RAD, PREGRASP_TOL_M)
-        if closing.min_distance(client, hand, obj) < -PREGRASP_TOL_M:
-            return False
+    if any(_opened(ids, p, Rotation.from_matrix(r).as_quat(), spread) is None for r, p in poses):
+        return False  # the open hand alone first: cheap, and where a pose pressed into the part fails
     for rot_d, pos_d in poses:
         done = execute_pose(client, hand, obj, model, rot_d, pos_d, spread, 0.0, mu, 0.0)
         if done is None or not set(cand.fingers) <= set(done[3]):

@@ -1,8 +1,8 @@
 """Candidate generators: where the planner's states come from, registered in one place (``GENERATORS``).
 
-Each maps (object model, search space, parameters, random generator) to ``Proposal`` s, states of the one search
-space (``planner.SearchSpace``); ``tasks.grasp.api.plan_on_model`` executes them all and ranks the grasps together.
-A generator proposes nothing where its mechanism does not apply.
+Each maps (object model, search space, parameters, random generator) to ``Proposal`` s, states of the one search space
+(``planner.SearchSpace``); ``tasks.grasp.api.plan_on_model`` executes them all and ranks the grasps together. A
+generator proposes nothing where its mechanism does not apply.
 """
 
 from __future__ import annotations
@@ -68,25 +68,26 @@ def demonstrated(
     ]
 
 
-def _bar_axis(model: ObjectModel) -> np.ndarray | None:
-    return None if model.cylinder is None else Rotation.from_quat(model.cylinder.quat_xyzw).apply([0.0, 0.0, 1.0])
+def _bar_axis(model: ObjectModel, space: SearchSpace) -> np.ndarray | None:
+    """The unit axis (world) of the model's bar when it lies within 60° of square to the demonstrated approach (a bar
+    along the approach, a cap, is no bar to slide along or pinch across), else None."""
+    if model.cylinder is None:
+        return None
+    axis = Rotation.from_quat(model.cylinder.quat_xyzw).apply([0.0, 0.0, 1.0])
+    return axis if math.hypot(*(axis @ space.seed_rot[:, :2])) >= 0.5 else None
 
 
 def along_the_bar(
     model: ObjectModel, space: SearchSpace, params: PlannerParams, rng: np.random.Generator
 ) -> list[Proposal]:
     """The demonstrated palm slid ``SLIDES_M`` either way along the bar (its axis taken across the approach), at
-    the pivot and held back, at ``TIP_SPREADS_RAD``, closed where it is; none when the bar points within 60° of the
-    approach (sliding would move the palm onto the part). A bar is held anywhere along it, and the demonstrated place
-    may be where a post or the fingers' sweep into the plate behind it gets in the way."""
+    the pivot and held back, at ``TIP_SPREADS_RAD``, closed where it is. A bar is held anywhere along it, and the
+    demonstrated place may be where a post or the fingers' sweep into the plate behind it gets in the way."""
     del rng, params
-    axis = _bar_axis(model)
+    axis = _bar_axis(model, space)
     if axis is None:
         return []
-    u, v = float(axis @ space.seed_rot[:, 0]), float(axis @ space.seed_rot[:, 1])
-    if math.hypot(u, v) < 0.5:
-        return []
-    u, v = u / math.hypot(u, v), v / math.hypot(u, v)
+    u, v = axis @ space.seed_rot[:, :2] / math.hypot(*(axis @ space.seed_rot[:, :2]))
     return [
         Proposal("along the bar", _at(spread, space.pivot_m + back, 0.0, s * u, s * v), 0.0)
         for slide in SLIDES_M
@@ -119,12 +120,12 @@ def square_pinch(
     outside the search space left out: tilted fingertips meet a round bar at different heights and a squeeze rolls it
     out of them."""
     del rng, params
-    axis = _bar_axis(model)
+    axis = _bar_axis(model, space)
     if axis is None or model.cylinder is None:
         return []
     approach = space.seed_rot[:, 2]
     square = approach - float(approach @ axis) * axis
-    z = square / max(float(np.linalg.norm(square)), 1e-9)
+    z = square / float(np.linalg.norm(square))
     x = axis if float(axis @ space.seed_rot[:, 0]) >= 0.0 else -axis
     rot = np.stack([x, np.cross(z, x), z], axis=1)
     centre = np.asarray(model.cylinder.position, dtype=np.float64)

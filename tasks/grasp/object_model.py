@@ -73,9 +73,7 @@ class ObjectModel:
     mount: BoolArray | None = None
     mount_parts: int = 0
     cylinder: PrimitiveShape | None = None
-    """The cylinder found in a mounted part (``part_cylinders``), its first piece, if any."""
-    cap: PrimitiveShape | None = None
-    """The cylinder of a cap (``tasks.grasp.cap``), when the part is one: its one piece (so its redraws too)."""
+    """The exact cylinder of a mounted part, its first piece, if any: a bar (``part_cylinders``) or a cap."""
 
     tree: cKDTree = field(init=False, repr=False)
     lower: Vector3 = field(init=False, repr=False)
@@ -269,8 +267,8 @@ def build_object_model(
     ``viewpoint``, a place outside the object, when given), convex parts or primitive. With ``approach`` too (a
     unit vector, world: the demonstrated palm's +z), the mount the part stands on is looked for
     (``tasks.grasp.mount``) and, when found, kept apart (``ObjectModel.mount``); when none is, a cap the palm looks
-    down on (``tasks.grasp.cap``, on the points as given) is the part, one exact piece, and what it sits on the
-    mount (``ObjectModel.cap``). Without a mount and with
+    down on (``tasks.grasp.cap``, on the points as given) is the part, one exact piece (``ObjectModel.cylinder``),
+    and what it sits on the mount. Without a mount and with
     ``fit``, a box or cylinder whose surface explains the points (``tasks.grasp.primitive_fit``: a carton, a
     bottle, a can) becomes the model's ``primitive`` instead of convex pieces, as GraspIt plans on shape primitives
     (Miller et al. 2003): the pieces' edges and seams fall differently with each k-means draw, and a fingertip that
@@ -287,7 +285,7 @@ def build_object_model(
             cap = find_cap(scan, viewpoint, approach)
             on_cap = np.zeros(len(pts), dtype=bool) if cap is None else within(cap, pts, CAP_MARGIN_M)
             if MIN_POINTS <= int(on_cap.sum()) < len(pts):  # a cap, and something beyond it
-                return mounted_model(pts, nrm, ~on_cap, rng, cap=cap)
+                return mounted_model(pts, nrm, ~on_cap, rng, cylinder=cap)
         if mount.any() and int((~mount).sum()) >= MIN_POINTS:
             return mounted_model(pts, nrm, mount, rng, fit=fit)
     center, radius = _centre_and_radius(pts)
@@ -310,17 +308,16 @@ def mounted_model(
     rng: np.random.Generator,
     *,
     fit: bool = True,
-    cap: PrimitiveShape | None = None,
+    cylinder: PrimitiveShape | None = None,
 ) -> ObjectModel:
     """A model with a mount: the part's pieces then the mount's convex pieces; the part's centre and radius. The
-    part is the prism of a ``cap`` (the scan's points are voxel centroids, up to 2 mm inside its rim and top) when
-    given; else, with ``fit``, a cylinder explaining much of it (a bar, a lever's arm:
+    part is the prism of a known ``cylinder`` (a cap: the scan's points are voxel centroids, up to 2 mm inside its
+    rim and top) when given; else, with ``fit``, a cylinder explaining much of it (a bar, a lever's arm:
     ``part_cylinders.find_cylinder``) is one exact piece and the rest of the part convex pieces; else its convex
     pieces."""
     grip, grip_normals = points[~mount], normals[~mount]
-    cylinder: PrimitiveShape | None = None
-    if cap is not None:
-        pieces: tuple[Points, ...] = (prism_vertices(cap),)
+    if cylinder is not None:
+        pieces: tuple[Points, ...] = (prism_vertices(cylinder),)
     elif fit:
         cylinder, pieces = _part_pieces(grip, grip_normals, rng)
     else:
@@ -328,7 +325,7 @@ def mounted_model(
     mount_pieces = convex_parts(points[mount], normals[mount], rng)
     center, radius = _centre_and_radius(grip)
     parts = pieces + mount_pieces
-    return ObjectModel(points, normals, center, radius, parts, None, mount, len(mount_pieces), cylinder, cap)
+    return ObjectModel(points, normals, center, radius, parts, None, mount, len(mount_pieces), cylinder)
 
 
 def _part_pieces(

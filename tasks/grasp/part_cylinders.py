@@ -1,13 +1,13 @@
 """Cylinders found in a part's point cloud (metres, world frame): the bar of a handle, the arm of a lever.
 
-A handle or lever on its mount is no single primitive (``primitive_fit`` refuses it), but most of its surface is
-often one cylinder: the bar the hand wraps. Found by RANSAC (Schnabel, Wahl & Klein, "Efficient RANSAC for
-point-cloud shape detection", 2007): a hypothesis from two points with normals (the axis is perpendicular to both
-normals; the centre where the two normal lines meet in the plane across the axis), scored by the points within
-the tolerance of its side whose normals point away from its axis; the best one's inliers (the longest run of them
-along the axis) refined and checked by ``primitive_fit.fit_cylinder`` and its tolerances. Planned on as one
-exact piece (a 64-sided prism, ``prism_vertices``) beside the convex pieces of the rest of the part, so the bar's
-surface does not depend on how k-means cuts it.
+A handle or lever on its mount is no single primitive (``primitive_fit`` refuses it), but most of its surface is often
+one cylinder: the bar the hand wraps. Found by RANSAC (Schnabel, Wahl & Klein, "Efficient RANSAC for point-cloud shape
+detection", 2007): a hypothesis from two points with normals (the axis is perpendicular to both normals; the centre
+where the two normal lines meet in the plane across the axis), scored by the points within the tolerance of its side
+whose normals point away from its axis; the best one's inliers (the longest run of them along the axis) refined and
+checked by ``primitive_fit.fit_cylinder`` and its tolerances. Planned on as one exact piece (a 64-sided prism,
+``prism_vertices``) beside the convex pieces of the rest of the part, so the bar's surface does not depend on how
+k-means cuts it.
 """
 
 from __future__ import annotations

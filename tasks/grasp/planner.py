@@ -1,19 +1,19 @@
 """The online eigengrasp planner's search (Ciocarlie & Allen; GraspIt!'s online planner as used by Dang & Allen).
 
 **State space** (``SearchSpace``): x = (a1, a2, d, θr, θx, θy, u, v): the two Barrett eigengrasp amplitudes
-(``barrett.dofs_from_eigengrasps``), and the wrist pose relative to the demonstrated palm: the palm rotated from
-the demonstrated one by θx about its x axis, θy about its y axis and θr about the approach (+z), placed ``d``
-metres before the **pivot**, the point where the demonstrated approach meets the object, moved (u, v) across the
-approach (along the demonstrated palm's x and y). Bounds (``PlannerParams``): amplitudes ±4, d -30..200 mm, angles
-±30°, (u, v) ±50 mm: the demonstration fixes the approach and roughly the place, not the exact pose.
+(``barrett.dofs_from_eigengrasps``), and the wrist pose relative to the demonstrated palm: the palm rotated from the
+demonstrated one by θx about its x axis, θy about its y axis and θr about the approach (+z), placed ``d`` metres before
+the **pivot**, the point where the demonstrated approach meets the object, moved (u, v) across the approach (along the
+demonstrated palm's x and y). Bounds (``PlannerParams``): amplitudes ±4, d -30..200 mm, angles ±30°, (u, v) ±50 mm: the
+demonstration fixes the approach and roughly the place, not the exact pose.
 
-**Energy** (``contact_energy``): GraspIt!'s contact energy, the mean over the hand's virtual contacts of their
-distance to the object plus the misalignment of their normals with the surface's, in mm; a state whose hand
-surface enters the object is illegal.
+**Energy** (``contact_energy``): GraspIt!'s contact energy, the mean over the hand's virtual contacts of their distance
+to the object plus the misalignment of their normals with the surface's, in mm; a state whose hand surface enters the
+object is illegal.
 
-**Loop** (``anneal``): simulated annealing with GraspIt!'s online schedule (``temperature``; Ingber's neighbour
-draws), a chain of ``steps`` per start; every state evaluated is offered to a **list of the best unique states**
-(``BestList``: the lowest energies, each differing from the others by a tenth of the search range in some variable).
+**Loop** (``anneal``): simulated annealing with GraspIt!'s online schedule (``temperature``; Ingber's neighbour draws),
+a chain of ``steps`` per start; every state evaluated is offered to a **list of the best unique states** (``BestList``:
+the lowest energies, each differing from the others by a tenth of the search range in some variable).
 """
 
 from __future__ import annotations

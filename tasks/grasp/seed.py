@@ -1,6 +1,6 @@
-"""The grasp planner's seed: the demonstrator's wrist tracker pose (world frame, metres, quaternion [x, y, z, w])
-at the stillest moment before the first primitive, turned into a palm pose (the Barrett hand base frame,
-``barrett.py``) through the sensor-to-palm offset (GraspIt!'s Barrett model by default)."""
+"""The grasp planner's seed: the demonstrator's wrist tracker pose (world frame, metres, quaternion [x, y, z, w]) at the
+stillest moment before the first primitive, turned into a palm pose (the Barrett hand base frame, ``barrett.py``)
+through the sensor-to-palm offset (GraspIt!'s Barrett model by default)."""
 
 from __future__ import annotations
 

@@ -1,18 +1,11 @@
 """Shake test: does a grasp hold the part as a free body under gravity and shaking (pybullet, DIRECT)?
 
-The part (the planner's object model) is a dynamic body of 0.3 kg made
-of its convex pieces or primitive. The hand is placed at the grasp's palm pose open at the grasp's spread
-(``closing.open_free``), the fingers are closed kinematically to contact, then position-controlled 0.3 rad
-past contact with at most ``squeeze_torque_nm`` (1.5 N m) so they press. A model with a known mount (the face
-a handle or a lever stands on, ``object_model.mounted_model``) is closed on as a whole, held static; then the
-part alone becomes the free body, and a finger the mount stopped holds its place instead of squeezing on: the
-test asks whether the fingers that reach the part hold it, not whether they pinch what it is fixed to. The
+The part (the planner's object model) is a dynamic body of 0.3 kg; the hand closes on it and squeezes (``grip``). The
 palm is held by a fixed constraint that follows the program (``ShakeParams.gravity`` and ``ShakeParams.motions``):
-gravity in each direction one phase after another, each phase settling 0.5 s, then the motions, translations or
-turns of the palm about an axis through it (``Motion``). The grasp holds when the part's pose relative to the palm
-moves less than ``max_shift_m`` and ``max_turn_rad`` from where it settled; the test stops as soon as either is
-exceeded. ``hold_check`` is the planner's program, run on its own object model before ``tasks.grasp.api`` chooses a
-grasp.
+gravity in each direction one phase after another, each phase settling 0.5 s, then the motions, translations or turns of
+the palm about an axis through it (``Motion``). The grasp holds when the part's pose relative to the palm moves less
+than ``max_shift_m`` and ``max_turn_rad`` from where it settled; the test stops as soon as either is exceeded.
+``hold_check`` is the planner's program, run on its own object model before ``tasks.grasp.api`` chooses a grasp.
 """
 
 from __future__ import annotations
@@ -96,8 +89,9 @@ def grip(  # noqa: PLR0917 -- pybullet client, model, palm pose, spread, setting
 ) -> tuple[int, int, int]:
     """Set up a grasp in pybullet ``client``: the hand at the palm pose (world, m, [x, y, z, w]) closed from the
     open hand at ``spread`` (rad) on the part as a free body (its mount, if any, an obstacle while the fingers
-    close, then removed; a finger it stopped holds its place), the fingers squeezing, the spread held, the palm held
-    by a fixed constraint. Returns the hand, the part and the constraint ids."""
+    close, then removed; a finger it stopped holds its place: the test asks whether the fingers that reach the part
+    hold it), the other fingers squeezing ``prm.squeeze_rad`` past contact, the spread held, the palm held by a fixed
+    constraint. Returns the hand, the part and the constraint ids."""
     pos = np.asarray(position, dtype=np.float64)
     quat = np.asarray(quat_xyzw, dtype=np.float64)
     part_only = model.without_mount()  # the free body is the part, not the face it stands on
