@@ -41,7 +41,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from schemas.descriptor import Grasp
 from tasks.errors import GraspError, PbdError
-from tasks.grasp import closing
+from tasks.grasp import execution as closing
 from tasks.grasp.api import part_near, plan_on_model
 from tasks.grasp.execution import grasp_from_candidate
 from tasks.grasp.object_model import ObjectModel, build_object_model, load_object

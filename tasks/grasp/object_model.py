@@ -26,8 +26,7 @@ from scipy.spatial import ConvexHull, QhullError, cKDTree
 
 from tasks.arrays import BoolArray, Points, Vector3
 from tasks.errors import GraspError
-from tasks.grasp.cap import find_cap
-from tasks.grasp.mount import find_mount
+from tasks.grasp.mount import find_cap, find_mount
 from tasks.grasp.part_cylinders import find_cylinder, prism_vertices
 from tasks.grasp.primitive_fit import MIN_POINTS, TOLERANCE_M, PrimitiveShape, fit_primitive, surface_distance, within
 
@@ -267,7 +266,7 @@ def build_object_model(
     ``viewpoint``, a place outside the object, when given), convex parts or primitive. With ``approach`` too (a
     unit vector, world: the demonstrated palm's +z), the mount the part stands on is looked for
     (``tasks.grasp.mount``) and, when found, kept apart (``ObjectModel.mount``); when none is, a cap the palm looks
-    down on (``tasks.grasp.cap``, on the points as given) is the part, one exact piece (``ObjectModel.cylinder``),
+    down on (``mount.find_cap``, on the points as given) is the part, one exact piece (``ObjectModel.cylinder``),
     and what it sits on the mount. Without a mount and with
     ``fit``, a box or cylinder whose surface explains the points (``tasks.grasp.primitive_fit``: a carton, a
     bottle, a can) becomes the model's ``primitive`` instead of convex pieces, as GraspIt plans on shape primitives

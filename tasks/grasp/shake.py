@@ -20,7 +20,7 @@ from scipy.spatial.transform import Rotation
 
 from schemas.descriptor import Grasp
 from tasks.arrays import FloatArray, Points, Vector3
-from tasks.grasp import closing
+from tasks.grasp.execution import close_fingers, contacts_of, open_free
 from tasks.grasp.object_model import ObjectModel, load_object
 from tasks.hand import barrett
 
@@ -102,10 +102,10 @@ def grip(  # noqa: PLR0917 -- pybullet client, model, palm pose, spread, setting
         pb.changeDynamics(
             hand, link, lateralFriction=1.0, spinningFriction=prm.spinning_friction_m, physicsClientId=client
         )
-    closed = closing.close_fingers(client, hand, obj, closing.open_free(client, hand, obj, spread))
+    closed = close_fingers(client, hand, obj, open_free(client, hand, obj, spread))
     blocked = np.zeros(3, dtype=bool)  # fingers stopped by the mount: they hold still, not squeeze on
     if mounted:
-        contacts = closing.contacts_of(client, hand, obj)
+        contacts = contacts_of(client, hand, obj)
         on_mount = model.is_mount_piece(contacts.pieces)
         for finger, links in enumerate(barrett.FINGER_LINKS):
             blocked[finger] = bool(np.any(on_mount & np.isin(contacts.links, links)))
@@ -197,7 +197,7 @@ def _squeezed_contacts(client: int, hand: int, obj: int, start: tuple[object, ob
     position and orientation then) undone."""
     end_pos, end_quat = pb.getBasePositionAndOrientation(obj, physicsClientId=client)
     back = Rotation.from_quat(start[1]) * Rotation.from_quat(end_quat).inv()
-    contacts = closing.contacts_of(client, hand, obj)
+    contacts = contacts_of(client, hand, obj)
     if not len(contacts.positions):
         return np.zeros((0, 3)), np.zeros((0, 3))
     positions = back.apply(contacts.positions - np.asarray(end_pos)) + np.asarray(start[0])

@@ -11,7 +11,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from tasks.arrays import Points
-from tasks.grasp.cap import find_cap
+from tasks.grasp.mount import find_cap
 from tasks.grasp.object_model import build_object_model
 from tasks.grasp.primitive_fit import within
 from tests.grasp.bench_object import plan_bench_scene
