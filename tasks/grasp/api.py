@@ -28,11 +28,10 @@ from schemas.descriptor import Grasp
 from tasks.arrays import FloatArray, Points, Vector3
 from tasks.errors import GraspError
 from tasks.grasp.execution import GraspCandidate, execute_states, grasp_from_candidate, hand_and_object, robust
-from tasks.grasp.generators import GENERATORS
 from tasks.grasp.object_model import ObjectModel, build_object_model, check_object_points
-from tasks.grasp.planner import PlannerParams, search_space
-from tasks.grasp.quality import GraspQuality, grasp_quality
-from tasks.grasp.shake import CHECK_LENGTH_S, CHECK_SHIFT_M, CHECK_TURN_TOL_RAD, ShakeResult, hold_check, shake_test
+from tasks.grasp.planner import GENERATORS, PlannerParams, search_space
+from tasks.grasp.quality import grasp_quality
+from tasks.grasp.shake import CHECK_LENGTH_S, CHECK_SHIFT_M, CHECK_TURN_TOL_RAD, hold_check, shake_test
 from tasks.recording.load import PoseTrack
 
 SEED_WINDOW_S = 1.0
@@ -161,12 +160,6 @@ def plan_on_model(
     return choose(model, ranked, prm)
 
 
-def _squeezed(result: ShakeResult, model: ObjectModel, mu: float) -> GraspQuality:
-    if result.squeezed_positions is None or result.squeezed_normals is None:
-        return GraspQuality(0, mu=mu)
-    return grasp_quality(result.squeezed_positions, result.squeezed_normals, model.center, model.radius, mu)
-
-
 def choose(model: ObjectModel, ranked: list[GraspCandidate], params: PlannerParams) -> GraspCandidate:
     """The first of ``ranked`` that survives the wrist error (``execution.robust``) and holds firmly (``FIRM``) under
     ``hold_check`` with a force closure at ``params.mu``, static or squeezed (then with the squeezed quality), while
@@ -182,7 +175,8 @@ def choose(model: ObjectModel, ranked: list[GraspCandidate], params: PlannerPara
                 continue  # a grasp that only holds at the exact planned pose is not a grasp
             result = shake_test(model, grasp_from_candidate(cand), hold_check(cand.quat_xyzw))
             left -= result.survived_s
-            quality = cand.quality if cand.quality.force_closure else _squeezed(result, model, params.mu)
+            squeezed = (result.squeezed_positions, result.squeezed_normals, model.center, model.radius, params.mu)
+            quality = cand.quality if cand.quality.force_closure else grasp_quality(*squeezed)
             if result.holds and quality.force_closure:
                 held.append(dataclasses.replace(cand, quality=quality))
                 if result.max_shift_m <= FIRM * CHECK_SHIFT_M and result.max_turn_rad <= FIRM * CHECK_TURN_TOL_RAD:
@@ -231,10 +225,10 @@ def plan_grasp_for_recording(
     if object_points is None:
         return None
     points = check_object_points(object_points)
+    if t_seed_s is not None and not math.isfinite(t_seed_s):
+        msg = f"seed time is not finite: {t_seed_s}"
+        raise GraspError(msg)
     if wrist is not None:
-        if t_seed_s is not None and not math.isfinite(t_seed_s):
-            msg = f"seed time is not finite: {t_seed_s}"
-            raise GraspError(msg)
         if t_seed_s is not None:
             stamp = stillest_time_ns(wrist, start_ns + round(t_seed_s * 1e9))
         else:

@@ -24,7 +24,7 @@ from scipy.spatial.transform import Rotation
 from schemas.descriptor import Grasp
 from tasks.arrays import FloatArray, Points, Vector3
 from tasks.grasp.object_model import ObjectModel, load_object
-from tasks.grasp.planner import PlannerParams, SearchSpace
+from tasks.grasp.planner import PlannerParams, Proposal, SearchSpace
 from tasks.grasp.quality import GraspQuality, grasp_quality
 from tasks.hand import barrett
 
@@ -55,13 +55,9 @@ def set_pose(client_id: int, hand: int, position: npt.ArrayLike, quat_xyzw: npt.
     pb.resetBasePositionAndOrientation(hand, pos, quat, physicsClientId=client_id)
 
 
-def min_distance(client_id: int, hand: int, obj: int, link: int | None = None, within: float = 0.05) -> float:
-    """Smallest signed distance (m) between the hand (or one of its links) and the object, capped at ``within``."""
-    kwargs = {} if link is None else {"linkIndexA": link}
-    pts = pb.getClosestPoints(hand, obj, within, physicsClientId=client_id, **kwargs)
-    if not pts:
-        return within
-    return float(min(p[8] for p in pts))
+def min_distance(client_id: int, hand: int, obj: int, within: float = 0.05) -> float:
+    """Smallest signed distance (m) between the hand and the object, capped at ``within``."""
+    return float(min((p[8] for p in pb.getClosestPoints(hand, obj, within, physicsClientId=client_id)), default=within))
 
 
 def approach_to_contact(  # noqa: PLR0917 -- pybullet ids then the pose, as in pybullet's own API
@@ -212,16 +208,6 @@ plan, and a transferred object frame adds its axis uncertainty of a millimetre a
 HOLDING_FINGERS = 2
 """Fingers that must touch the part: a hand holds a part between its fingers; the palm and one finger let it turn
 about that finger when the arm moves it."""
-
-
-@dataclass(frozen=True)
-class Proposal:
-    """A state to execute: who proposed it (``source``), the state x (8,), how far (m) the palm may approach to
-    contact (0 for a fingertip grasp whose palm is to stay where it is)."""
-
-    source: str
-    state: FloatArray
-    approach_m: float
 
 
 @dataclass(frozen=True)

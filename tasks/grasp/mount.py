@@ -72,8 +72,7 @@ def find_mount(points: Points, palm_position: Vector3, approach: Vector3) -> Boo
     across = in_plane(axis)
     uv = points @ across  # coordinates across the approach: the mount's depth is a function of them
     left = np.arange(len(points))
-    best: BoolArray | None = None
-    best_depth = np.inf
+    found: list[tuple[float, BoolArray]] = []  # (median depth, the mount's points) of each plane that is one
     for k in range(PLANES):
         if len(left) < MIN_SHARE * len(points):
             break
@@ -86,12 +85,12 @@ def find_mount(points: Points, palm_position: Vector3, approach: Vector3) -> Boo
         on[left[residual < PLANE_TOLERANCE_M]] = True
         slope = np.asarray(ransac.estimator_.coef_, dtype=np.float64)
         normal = axis - across @ slope  # depth = slope . uv + c: the plane's normal, towards +approach
-        if _is_mount(points, on, normal, axis, depth) and float(np.median(depth[on])) < best_depth:
-            away = normal / float(np.linalg.norm(normal))
-            best = on | ((points - points[on].mean(axis=0)) @ away > -PLANE_TOLERANCE_M)
-            best_depth = float(np.median(depth[on]))
+        if _is_mount(points, on, normal, axis, depth):
+            behind = (points - points[on].mean(axis=0)) @ normal / float(np.linalg.norm(normal)) > -PLANE_TOLERANCE_M
+            found.append((float(np.median(depth[on])), on | behind))
         left = left[~on[left]]
-    return best if best is not None and not best.all() else np.zeros(len(points), dtype=bool)
+    best = min(found, key=lambda f: f[0])[1] if found else np.zeros(len(points), dtype=bool)
+    return best if not best.all() else np.zeros(len(points), dtype=bool)
 
 
 def _is_mount(points: Points, on: BoolArray, normal: Vector3, axis: Vector3, depth: np.ndarray) -> bool:

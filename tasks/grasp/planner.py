@@ -14,6 +14,10 @@ object is illegal.
 **Loop** (``anneal``): simulated annealing with GraspIt!'s online schedule (``temperature``; Ingber's neighbour draws),
 a chain of ``steps`` per start; every state evaluated is offered to a **list of the best unique states** (``BestList``:
 the lowest energies, each differing from the others by a tenth of the search range in some variable).
+
+**Proposals** (``GENERATORS``): where the states to execute come from, registered in one place; each generator maps
+(object model, search space, parameters, random generator) to ``Proposal`` s and proposes nothing where its
+mechanism does not apply; ``tasks.grasp.api.plan_on_model`` executes them all and ranks the grasps together.
 """
 
 from __future__ import annotations
@@ -117,6 +121,16 @@ class SearchSpace:
     def inside(self, x: FloatArray) -> bool:
         """Whether x lies within the bounds (1 µm slack)."""
         return bool(np.all(x >= self.lower - 1e-6) and np.all(x <= self.upper + 1e-6))
+
+
+@dataclass(frozen=True)
+class Proposal:
+    """A state to execute: who proposed it (``source``), the state x (8,), how far (m) the palm may approach to
+    contact (0 for a fingertip grasp whose palm is to stay where it is)."""
+
+    source: str
+    state: FloatArray
+    approach_m: float
 
 
 def search_space(model: ObjectModel, seed_rot: FloatArray, seed_pos: Vector3, params: PlannerParams) -> SearchSpace:
@@ -232,3 +246,126 @@ def anneal(  # noqa: PLR0917 -- the annealing inputs, named at call sites
     for chain_x, chain_e in zip(np.stack(seen, axis=1), np.stack(seen_e, axis=1), strict=True):
         for state, energy_mm in zip(chain_x, chain_e, strict=True):
             best.offer(state, float(energy_mm))
+
+
+SPREADS_RAD = (0.0, 1.13, math.pi / 2)
+"""Spreads of the demonstrated palm's proposals: the thumb opposite fingers 1 and 2, GraspIt!'s origin posture, and
+fingers 1 and 2 face to face."""
+TIP_SPREADS_RAD = (0.0, math.pi / 2)
+"""Spreads of the fingertip proposals: three fingertips two against one, then two face to face."""
+ROLLS_RAD = (0.0, math.radians(15.0), math.radians(-15.0))
+"""Rolls about the demonstrated approach: a hand closes round a bar or a box at any roll within a few tens of
+degrees of the demonstrated one."""
+HOLD_BACK_M = 0.02
+"""The demonstrated palm held back by about a finger's width, so the fingers close round the part, not on top."""
+SLIDES_M = (0.025, 0.05)
+"""Distances slid along a bar: a finger's width and two."""
+TIP_DISTANCES_M = (0.06, 0.07, 0.08, 0.09, 0.10)
+"""Palm distances from the part's surface at which the open fingertips (126 mm fingers on 50 mm knuckles) close on
+a part 10-50 mm across."""
+CHAIN_SPREADS = (-1.13, 0.0, 0.44, 2.0)
+"""Start amplitude a1 of the annealing chains: spread 0, 1.13 (the origin), π/2 and π."""
+
+Generator = Callable[[ObjectModel, SearchSpace, PlannerParams, np.random.Generator], list[Proposal]]
+
+
+def _at(spread: float, d: float, roll: float = 0.0, u: float = 0.0, v: float = 0.0) -> np.ndarray:
+    """The state of the open hand at ``spread`` (rad), ``d`` before the pivot, rolled, moved (u, v) across."""
+    return np.array([barrett.spread_amplitude(spread), 0.0, d, roll, 0.0, 0.0, u, v])
+
+
+def annealed(model: ObjectModel, space: SearchSpace, params: PlannerParams, rng: np.random.Generator) -> list[Proposal]:
+    """GraspIt!'s online eigengrasp planner: the best unique states of ``params.chains`` annealing chains from the
+    demonstrated palm under the contact energy (``planner.anneal``)."""
+    best = BestList(params.candidates, space.upper - space.lower)
+    d0 = float(np.clip(space.pivot_m, *params.distance_range_m))
+    starts = np.array([[a1, -1.0, d0, 0.0, 0.0, 0.0, 0.0, 0.0] for a1 in CHAIN_SPREADS[: params.chains]])
+    anneal(lambda x: state_energy(model, space, x), starts, space, rng, params.steps, best)
+    return [Proposal("annealed", x, params.approach_max_m) for _, x in best.states]
+
+
+def demonstrated(
+    _model: ObjectModel, space: SearchSpace, params: PlannerParams, _rng: np.random.Generator
+) -> list[Proposal]:
+    """The demonstrated palm, held back ``HOLD_BACK_M`` and rolled ``ROLLS_RAD``, at ``SPREADS_RAD``: what the
+    demonstrator did, which the energy does not always rank first."""
+    return [
+        Proposal("demonstrated", _at(spread, space.pivot_m + back, roll), params.approach_max_m)
+        for back in (0.0, HOLD_BACK_M)
+        for roll in ROLLS_RAD
+        for spread in SPREADS_RAD
+    ]
+
+
+def _bar_axis(model: ObjectModel, space: SearchSpace) -> np.ndarray | None:
+    """The unit axis (world) of the model's bar when it lies within 60° of square to the demonstrated approach (a bar
+    along the approach, a cap, is no bar to slide along or pinch across), else None."""
+    if model.cylinder is None:
+        return None
+    axis = Rotation.from_quat(model.cylinder.quat_xyzw).apply([0.0, 0.0, 1.0])
+    return axis if math.hypot(*(axis @ space.seed_rot[:, :2])) >= 0.5 else None
+
+
+def along_the_bar(
+    model: ObjectModel, space: SearchSpace, _params: PlannerParams, _rng: np.random.Generator
+) -> list[Proposal]:
+    """The demonstrated palm slid ``SLIDES_M`` either way along the bar (its axis taken across the approach), at
+    the pivot and held back, at ``TIP_SPREADS_RAD``, closed where it is. A bar is held anywhere along it, and the
+    demonstrated place may be where a post or the fingers' sweep into the plate behind it gets in the way."""
+    axis = _bar_axis(model, space)
+    if axis is None:
+        return []
+    u, v = axis @ space.seed_rot[:, :2] / math.hypot(*(axis @ space.seed_rot[:, :2]))
+    return [
+        Proposal("along the bar", _at(spread, space.pivot_m + back, 0.0, s * u, s * v), 0.0)
+        for slide in SLIDES_M
+        for s in (slide, -slide)
+        for back in (0.0, HOLD_BACK_M)
+        for spread in TIP_SPREADS_RAD
+    ]
+
+
+def pinch(model: ObjectModel, _space: SearchSpace, _params: PlannerParams, _rng: np.random.Generator) -> list[Proposal]:
+    """On a mounted part: the demonstrated palm held back ``TIP_DISTANCES_M`` from the pivot, rolled ``ROLLS_RAD``,
+    at ``TIP_SPREADS_RAD``, closed where it is: fingers curled round a bar reach 45 mm or more in front of the palm,
+    so on a bar 20-50 mm before its plate they meet the plate; the open fingertips close 80-100 mm in front of it."""
+    if model.mount is None:
+        return []
+    return [
+        Proposal("pinch", _at(spread, d, roll), 0.0)
+        for roll in ROLLS_RAD
+        for d in TIP_DISTANCES_M
+        for spread in TIP_SPREADS_RAD
+    ]
+
+
+def square_pinch(
+    model: ObjectModel, space: SearchSpace, _params: PlannerParams, _rng: np.random.Generator
+) -> list[Proposal]:
+    """On a part with a bar: palms square to the bar, +x along it, through its axis where it passes nearest the
+    demonstrated palm, ``TIP_DISTANCES_M`` from its surface, at ``TIP_SPREADS_RAD``, closed where they are; those
+    outside the search space left out: tilted fingertips meet a round bar at different heights and a squeeze rolls it
+    out of them."""
+    axis = _bar_axis(model, space)
+    if axis is None or model.cylinder is None:
+        return []
+    approach = space.seed_rot[:, 2]
+    square = approach - float(approach @ axis) * axis
+    z = square / float(np.linalg.norm(square))
+    x = axis if float(axis @ space.seed_rot[:, 0]) >= 0.0 else -axis
+    rot = np.stack([x, np.cross(z, x), z], axis=1)
+    centre = np.asarray(model.cylinder.position, dtype=np.float64)
+    half = float(model.cylinder.size[1])
+    front = centre + float(np.clip((space.seed_pos - centre) @ axis, -half, half)) * axis - z * model.cylinder.size[0]
+    states = [space.state(rot, front - z * d, spread) for spread in TIP_SPREADS_RAD for d in TIP_DISTANCES_M]
+    return [Proposal("square pinch", s, 0.0) for s in states if space.inside(s)]
+
+
+GENERATORS: dict[str, Generator] = {
+    "demonstrated": demonstrated,
+    "annealed": annealed,
+    "along the bar": along_the_bar,
+    "pinch": pinch,
+    "square pinch": square_pinch,
+}
+"""Every generator, by name: ``tasks.grasp.api.plan_on_model`` executes the proposals of all of them."""

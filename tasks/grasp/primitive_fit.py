@@ -106,12 +106,8 @@ def fit_primitive(points: Points, normals: Points, *, tolerance_m: float = TOLER
     if len(points) < MIN_POINTS:
         return None
     tol = tolerance(tolerance_m, float(np.linalg.norm(points - points.mean(axis=0), axis=1).max()))
-    kept = []
-    for fit in (fit_box(points, normals), fit_cylinder(points, normals)):
-        if fit is None:
-            continue
-        if fit.p95_m <= tol and fit.rms_m <= RMS_FRACTION * tol and supported(fit.shape, points, tol):
-            kept.append(fit)
+    fits = [fit for fit in (fit_box(points, normals), fit_cylinder(points, normals)) if fit is not None]
+    kept = [f for f in fits if f.p95_m <= tol and f.rms_m <= RMS_FRACTION * tol and supported(f.shape, points, tol)]
     return min(kept, key=lambda f: f.rms_m, default=None)
 
 

@@ -90,8 +90,6 @@ def grasp_quality(
     positions: Points, normals_in: Points, center: Vector3, radius: float, mu: float = DEFAULT_MU
 ) -> GraspQuality:
     """The quality of the contacts (see the module docstring), each measure computed on first use."""
-    if len(positions) == 0:
-        return GraspQuality(0, mu=mu)
     return GraspQuality(len(positions), contact_wrenches(positions, normals_in, center, radius, mu), mu=mu)
 
 

@@ -70,9 +70,9 @@ class ShakeResult:
     holds: bool
     max_shift_m: float
     max_turn_rad: float
-    survived_s: float = 0.0
-    squeezed_positions: Points | None = None
-    squeezed_normals: Points | None = None
+    survived_s: float
+    squeezed_positions: Points
+    squeezed_normals: Points
     """The contacts (m, 3) once the fingers have squeezed the part for 0.3 s without gravity, and their normals into
     the part, expressed where the model has the part (world, m): what the squeezing hand holds."""
 
@@ -198,8 +198,6 @@ def _squeezed_contacts(client: int, hand: int, obj: int, start: tuple[object, ob
     end_pos, end_quat = pb.getBasePositionAndOrientation(obj, physicsClientId=client)
     back = Rotation.from_quat(start[1]) * Rotation.from_quat(end_quat).inv()
     contacts = contacts_of(client, hand, obj)
-    if not len(contacts.positions):
-        return np.zeros((0, 3)), np.zeros((0, 3))
     positions = back.apply(contacts.positions - np.asarray(end_pos)) + np.asarray(start[0])
     return np.asarray(positions, dtype=np.float64).reshape(-1, 3), back.apply(contacts.normals_in).reshape(-1, 3)
 

@@ -12,11 +12,11 @@ from scipy.spatial.transform import Rotation
 from tasks.arrays import Points
 from tasks.grasp.api import plan_grasp, plan_on_model
 from tasks.grasp.execution import grasp_from_candidate
-from tasks.grasp.generators import GENERATORS
 from tasks.grasp.object_model import build_object_model
 from tasks.grasp.planner import (
     ACCEPT_C,
     ACCEPT_D,
+    GENERATORS,
     ILLEGAL_ENERGY,
     NEIGHBOUR_C,
     NEIGHBOUR_D,
