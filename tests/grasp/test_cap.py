@@ -1,6 +1,6 @@
-"""The cap a palm looks down on (``cap.py``): the solid the palm meets first as far as its side keeps one radius,
-its neck and body the mount; a box, a can and a lone cylinder have none. On the bottle scene a cap planned as the
-part holds the cap, not the neck below it."""
+"""The cap a palm looks down on (``mount.find_cap``): the solid the palm meets first as far as its side keeps one
+radius, its neck and body the mount; a box, a can and a lone cylinder have none. On the bottle scene a cap planned as
+the part holds the cap, not the neck below it."""
 
 from __future__ import annotations
 
