@@ -41,9 +41,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from schemas.descriptor import Grasp
 from tasks.errors import GraspError, PbdError
-from tasks.grasp import closing
+from tasks.grasp import execution as closing
 from tasks.grasp.api import part_near, plan_on_model
-from tasks.grasp.candidate_grasp import grasp_from_candidate
+from tasks.grasp.execution import grasp_from_candidate
 from tasks.grasp.object_model import ObjectModel, build_object_model, load_object
 from tasks.grasp.quality import grasp_quality
 from tasks.grasp.shake import shake_test

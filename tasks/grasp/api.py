@@ -1,63 +1,135 @@
 """Grasp planning entry points used by the learn stage (``G`` of the descriptor, DESCRIPTOR.md).
 
-The demonstrator's wrist tracker pose (world frame, metres, quaternion [x, y, z, w]) is turned into a seed palm
-pose through the sensor-to-palm offset (``seed.py``). ``plan_on_model`` is the planner, one search:
+The seed is the demonstrator's wrist tracker pose (world frame, metres, quaternion [x, y, z, w]) at the stillest moment
+before the first primitive, turned into a palm pose through the sensor-to-palm offset (``PalmOffset``).
 
-1. every generator of ``generators.GENERATORS`` proposes states of one search space around the demonstrated palm
-   (``planner.SearchSpace``; the annealing's best unique states among them);
-2. each is executed as the robot executes a grasp (``execution.py``) and the grasps are ranked once: force closure
-   first, then closeness to the demonstration (``rank``);
-3. in that order, grasps that survive the wrist pose error of a robot (``execution.robust``: closed with the palm
-   displaced by millimetres and degrees, the same fingers still reach the part) are
-   shaken by the hold check (``hold_check``, on the planner's own object model) within
-   one time budget (``PlannerParams.hold_checks`` whole checks of simulated time): the first that holds firmly with
-   a force closure, static or once the fingers have squeezed it, is the plan (``choose``).
+``plan_on_model`` is the planner, one search (docs/grasp.md): every generator of ``generators.GENERATORS`` proposes
+states of one search space around the demonstrated palm (``planner.SearchSpace``), each is executed as the robot
+executes a grasp (``execution.py``), the grasps are ranked once (``rank``) and, in that order, those that survive a
+robot's wrist error (``execution.robust``) are shaken by the hold check within one time budget (``choose``).
 
-``Grasp.wrist_*`` is the pose of the hand base (palm) frame of ``barrett.py`` in the world, +z the approach
-direction; ``Grasp.eigengrasps`` (a1, a2) is the posture the hand closes towards: execute by opening the hand at
-spread 1.13 + a1 (fingers ``barrett.OPEN_FINGER_RAD``), moving the palm along +z to the wrist pose and closing the
-fingers towards a2 (``barrett.CLOSE_AMPLITUDE``: fully) until they stop on the part, as ``tasks.simulate`` and the
-scenes' truth grasps do. ``quality`` holds epsilon, volume, force_closure, the contact count, the friction ``mu``,
-the closed DOFs ``closed_dofs`` [spread, f1, f2, f3] (radians), ``demo_offset_m`` / ``demo_angle_rad``: how far the
-palm lies off the demonstrated approach, and (``plan_grasp``) ``planned_on``.
+``Grasp.wrist_*`` is the palm (hand base) frame of ``barrett.py`` in the world, +z the approach; ``Grasp.eigengrasps``
+(a1, a2) the posture the hand closes towards from the open hand at spread 1.13 + a1, as ``tasks.simulate`` executes it.
+``quality``: epsilon, volume, force_closure, contacts, ``mu``, ``closed_dofs`` [spread, f1, f2, f3] (rad),
+``demo_offset_m`` / ``demo_angle_rad`` from the demonstrated approach.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
+from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
-from scipy.spatial.transform import Rotation
+from scipy.spatial.transform import Rotation, Slerp
 
 from schemas.descriptor import Grasp
 from tasks.arrays import FloatArray, Points, Vector3
 from tasks.errors import GraspError
-from tasks.grasp.candidate_grasp import grasp_from_candidate
-from tasks.grasp.execution import GraspCandidate, execute_states, hand_and_object, robust
-from tasks.grasp.generators import GENERATORS
-from tasks.grasp.hold_check import CHECK_LENGTH_S, CHECK_SHIFT_M, CHECK_TURN_TOL_RAD, hold_check
-from tasks.grasp.object_model import ObjectModel, build_object_model, check_object_points, crop_points
-from tasks.grasp.planner import PlannerParams, search_space
-from tasks.grasp.quality import GraspQuality, grasp_quality
-from tasks.grasp.seed import (
-    GRASPIT_TRACKER_OFFSET,
-    PalmOffset,
-    check_seed,
-    palm_from_sensor,
-    stillest_time_ns,
-    wrist_pose_at,
-)
-from tasks.grasp.shake import ShakeResult, shake_test
+from tasks.grasp.execution import GraspCandidate, execute_states, grasp_from_candidate, hand_and_object, robust
+from tasks.grasp.object_model import ObjectModel, build_object_model, check_object_points
+from tasks.grasp.planner import GENERATORS, PlannerParams, search_space
+from tasks.grasp.quality import grasp_quality
+from tasks.grasp.shake import CHECK_LENGTH_S, CHECK_SHIFT_M, CHECK_TURN_TOL_RAD, hold_check, shake_test
 from tasks.recording.load import PoseTrack
+
+SEED_WINDOW_S = 1.0
+"""The seed is the stillest wrist pose within this long before the first primitive's start (``stillest_time_ns``)."""
+
+
+@dataclass(frozen=True)
+class PalmOffset:
+    """Sensor-to-palm transform: palm = sensor · Trans(translation_m) · R, R = Rz(yaw) then Ry(pitch) (intrinsic)."""
+
+    translation_m: tuple[float, float, float] = (0.0, -0.060, -0.035)
+    yaw_rad: float = math.radians(90.0)
+    pitch_rad: float = math.radians(30.0)
+
+    def rotation(self) -> Rotation:
+        """The offset's rotation (sensor frame to palm frame)."""
+        return Rotation.from_euler("ZY", [self.yaw_rad, self.pitch_rad])
+
+
+GRASPIT_TRACKER_OFFSET = PalmOffset()
+"""GraspIt!'s Barrett model: tracker at (0, -60, -35) mm, then 90° about z and 30° about y."""
+
+
+def palm_from_sensor(
+    position: Vector3, quat_xyzw: FloatArray, offset: PalmOffset = GRASPIT_TRACKER_OFFSET
+) -> tuple[Vector3, FloatArray]:
+    """Palm pose (position (3,) m, quaternion [x, y, z, w]) in the world for a tracker pose in the world."""
+    sensor = Rotation.from_quat(quat_xyzw)
+    palm_pos = np.asarray(position, dtype=np.float64) + sensor.apply(np.array(offset.translation_m))
+    return palm_pos, (sensor * offset.rotation()).as_quat()
+
+
+def sensor_from_palm(
+    position: Vector3, quat_xyzw: FloatArray, offset: PalmOffset = GRASPIT_TRACKER_OFFSET
+) -> tuple[Vector3, FloatArray]:
+    """Tracker pose (position (3,) m, quaternion [x, y, z, w], world) whose palm is the given world pose: the
+    inverse of ``palm_from_sensor``, for writing a wrist track that seeds a wanted palm pose."""
+    sensor = Rotation.from_quat(quat_xyzw) * offset.rotation().inv()
+    sensor_pos = np.asarray(position, dtype=np.float64) - sensor.apply(np.array(offset.translation_m))
+    return sensor_pos, sensor.as_quat()
+
+
+def wrist_pose_at(track: PoseTrack, stamp_ns: int) -> tuple[Vector3, FloatArray]:
+    """Tracker pose at ``stamp_ns`` (positions linear, orientations slerped; clamped to the track's span)."""
+    ok = np.all(np.isfinite(track.positions), axis=1) & np.all(np.isfinite(track.quats), axis=1)
+    stamps = np.asarray(track.stamps_ns)[ok]
+    if len(stamps) == 0:
+        msg = f"wrist track {track.frame}: no finite samples"
+        raise GraspError(msg)
+    positions = np.asarray(track.positions, dtype=np.float64)[ok]
+    quats = np.asarray(track.quats, dtype=np.float64)[ok]
+    t = float(np.clip(stamp_ns, stamps[0], stamps[-1]) - stamps[0]) * 1e-9
+    times = (stamps - stamps[0]).astype(np.float64) * 1e-9
+    if len(stamps) == 1 or not np.all(np.diff(times) > 0):
+        i = int(np.argmin(np.abs(times - t)))
+        return positions[i], quats[i] / np.linalg.norm(quats[i])
+    pos = np.array([np.interp(t, times, positions[:, k]) for k in range(3)])
+    return pos, Slerp(times, Rotation.from_quat(quats))(t).as_quat()
+
+
+def stillest_time_ns(track: PoseTrack, stamp_ns: int, window_s: float = SEED_WINDOW_S) -> int:
+    """The stamp (ns) in ``[stamp_ns - window_s, stamp_ns]`` where the wrist moves least (over ±0.1 s: 10 mm or
+    2° count alike; near-ties go to the latest): the moment the demonstrator's hand rested on the part while
+    closing, the grasp. A primitive's detected start can come late, after the hand began turning the part."""
+    half_ns = 100_000_000
+    times: list[int] = []
+    costs: list[float] = []
+    for k in range(round(window_s / 0.05), -1, -1):
+        t = stamp_ns - k * 50_000_000
+        p0, q0 = wrist_pose_at(track, t - half_ns)
+        p1, q1 = wrist_pose_at(track, t + half_ns)
+        turn = float((Rotation.from_quat(q0).inv() * Rotation.from_quat(q1)).magnitude())
+        times.append(t)
+        costs.append(float(np.linalg.norm(p1 - p0)) / 0.01 + turn / math.radians(2.0))
+    floor = min(costs) + 0.25  # ties (within 2.5 mm or 0.5°) go to the latest moment
+    return max(t for t, c in zip(times, costs, strict=True) if c <= floor)
+
+
+def check_seed(seed_position: object, seed_quat_xyzw: object) -> tuple[Vector3, FloatArray]:
+    """The seed palm pose as a position (3,) m and a unit quaternion [x, y, z, w] (world); ``GraspError`` naming
+    what is wrong when it is not one."""
+    pos = np.asarray(seed_position, dtype=np.float64)
+    quat = np.asarray(seed_quat_xyzw, dtype=np.float64)
+    if pos.shape != (3,) or quat.shape != (4,):
+        msg = f"seed pose: expected position (3,) and quaternion (4,), got {pos.shape} and {quat.shape}"
+        raise GraspError(msg)
+    if not (np.all(np.isfinite(pos)) and np.all(np.isfinite(quat))):
+        msg = f"seed pose is not finite: position {pos.tolist()}, quaternion {quat.tolist()}"
+        raise GraspError(msg)
+    norm = float(np.linalg.norm(quat))
+    if norm < 1e-6:
+        msg = f"seed quaternion has zero length: {quat.tolist()}"
+        raise GraspError(msg)
+    return pos, quat / norm
+
 
 CROP_RADIUS_M = 0.15
 """Object points farther than this from the part nearest the seed palm are left out (the part to grasp)."""
-HELD_MU = 0.8
-"""Friction coefficient of the hold check's contacts: the part's 0.8 (``shake.ShakeParams.friction``) times the
-finger pads' 1.0, as Bullet combines them: a grasp that held without a force closure at ``PlannerParams.mu`` is
-judged at the friction it was held with."""
 FIRM = 0.5
 """A grasp that held but let the part move or turn more than this fraction of the check's tolerances is kept back
 while a firmer one may be found: slip that starts in a short check goes on in a longer one."""
@@ -88,22 +160,13 @@ def plan_on_model(
     return choose(model, ranked, prm)
 
 
-def _squeezed(result: ShakeResult, model: ObjectModel, mu: float) -> GraspQuality:
-    if result.squeezed_positions is None or result.squeezed_normals is None:
-        return GraspQuality(0, mu=mu)
-    return grasp_quality(result.squeezed_positions, result.squeezed_normals, model.center, model.radius, mu)
-
-
 def choose(model: ObjectModel, ranked: list[GraspCandidate], params: PlannerParams) -> GraspCandidate:
     """The first of ``ranked`` that survives the wrist error (``execution.robust``) and holds firmly (``FIRM``) under
     ``hold_check`` with a force closure at ``params.mu``, static or squeezed (then with the squeezed quality), while
     the budget lasts (a check starts only while a whole one fits in the simulated time left); else the first that
-    held loosely; else the first that held with a squeezed force closure at ``HELD_MU``; else the checked force
-    closure that lasted longest; else the first force closure; else the first."""
+    held; else the first force closure; else the first."""
     left = params.hold_checks * CHECK_LENGTH_S
-    loose: list[GraspCandidate] = []
     held: list[GraspCandidate] = []
-    longest: tuple[float, GraspCandidate] | None = None
     with hand_and_object(model) as ids:
         for cand in ranked:
             if left < CHECK_LENGTH_S:
@@ -112,23 +175,13 @@ def choose(model: ObjectModel, ranked: list[GraspCandidate], params: PlannerPara
                 continue  # a grasp that only holds at the exact planned pose is not a grasp
             result = shake_test(model, grasp_from_candidate(cand), hold_check(cand.quat_xyzw))
             left -= result.survived_s
-            quality = cand.quality if cand.quality.force_closure else _squeezed(result, model, params.mu)
+            squeezed = (result.squeezed_positions, result.squeezed_normals, model.center, model.radius, params.mu)
+            quality = cand.quality if cand.quality.force_closure else grasp_quality(*squeezed)
             if result.holds and quality.force_closure:
-                chosen = dataclasses.replace(cand, quality=quality)
+                held.append(dataclasses.replace(cand, quality=quality))
                 if result.max_shift_m <= FIRM * CHECK_SHIFT_M and result.max_turn_rad <= FIRM * CHECK_TURN_TOL_RAD:
-                    return chosen
-                loose.append(chosen)
-            elif result.holds:
-                at_held = _squeezed(result, model, HELD_MU)
-                if at_held.force_closure:
-                    held.append(dataclasses.replace(cand, quality=at_held))
-            if cand.quality.force_closure and (longest is None or result.survived_s > longest[0]):
-                longest = (result.survived_s, cand)
-    if loose or held:
-        return (loose + held)[0]
-    if longest is not None:
-        return longest[1]
-    return next((c for c in ranked if c.quality.force_closure), ranked[0])
+                    return held[-1]
+    return held[0] if held else next((c for c in ranked if c.quality.force_closure), ranked[0])
 
 
 def plan_grasp(
@@ -145,26 +198,13 @@ def plan_grasp(
     pos, quat = check_seed(seed_position, seed_quat_xyzw)
     approach = Rotation.from_quat(quat).as_matrix()[:, 2]
     model = build_object_model(object_points, rng, viewpoint=pos, approach=approach)
-    grasp = grasp_from_candidate(plan_on_model(model, seed_position, seed_quat_xyzw, rng, params))
-    return dataclasses.replace(grasp, quality={**grasp.quality, "planned_on": planned_on(model)})
-
-
-def planned_on(model: ObjectModel) -> str:
-    """What a grasp was planned on: ``"box"`` or ``"cylinder"`` (a primitive fitted to the points), ``"cylinder
-    and convex pieces"`` (a mounted part's bar, ``part_cylinders``, the rest of it and its mount in pieces), ``"cap
-    and convex pieces"`` (a cap's cylinder, ``tasks.grasp.cap``, its mount in pieces), else ``"convex pieces"`` (of
-    the points; the part's and its mount's when a mount was found)."""
-    if model.primitive is not None:
-        return model.primitive.kind
-    if model.cap is not None:
-        return "cap and convex pieces"
-    return "cylinder and convex pieces" if model.cylinder is not None else "convex pieces"
+    return grasp_from_candidate(plan_on_model(model, seed_position, seed_quat_xyzw, rng, params))
 
 
 def part_near(points: Points, palm_position: Vector3, radius_m: float = CROP_RADIUS_M) -> Points:
     """The object points within ``radius_m`` of the point nearest the palm (the part the hand reaches for)."""
     nearest = points[int(np.argmin(np.linalg.norm(points - palm_position, axis=1)))]
-    part = crop_points(points, nearest, radius_m)
+    part = points[np.linalg.norm(points - nearest, axis=1) <= radius_m]
     return part if len(part) >= 30 else points
 
 
@@ -185,10 +225,10 @@ def plan_grasp_for_recording(
     if object_points is None:
         return None
     points = check_object_points(object_points)
+    if t_seed_s is not None and not math.isfinite(t_seed_s):
+        msg = f"seed time is not finite: {t_seed_s}"
+        raise GraspError(msg)
     if wrist is not None:
-        if t_seed_s is not None and not math.isfinite(t_seed_s):
-            msg = f"seed time is not finite: {t_seed_s}"
-            raise GraspError(msg)
         if t_seed_s is not None:
             stamp = stillest_time_ns(wrist, start_ns + round(t_seed_s * 1e9))
         else:

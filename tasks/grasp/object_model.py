@@ -1,16 +1,14 @@
 """The object to grasp, built from the descriptor's object model point cloud (metres, world frame).
 
-Collision geometry: the cloud is split by k-means into compact clusters and each cluster becomes one convex
-piece, the hull of its points and of the same points pushed 5 mm inwards along their normals (so a patch of a
-flat face still has thickness). The pieces are the links of one pybullet body (fixed joints). Small convex
-pieces keep concave shapes concave (the gap behind a door handle stays open), which one convex hull would fill,
-and unlike a triangle mesh they also work for a free (dynamic) body in the shake test. Normals are the
-PCA normals of the k nearest neighbours, oriented by propagation along a minimum spanning tree (Hoppe et al.;
-open3d's tangent-plane orientation does the same but took 0.7 s on 1300 points
-here, this 20 ms). A box or cylinder replaces the pieces when it explains the points (``build_object_model``,
-``tasks.grasp.primitive_fit``) or when it is known (the true shape of a test object); on a part with a mount, the
-bar found in it (``tasks.grasp.part_cylinders``) is one exact piece, a 64-sided prism, beside the convex pieces of
-the rest.
+Collision geometry: the cloud is split by k-means into compact clusters and each cluster becomes one convex piece, the
+hull of its points and of the same points pushed 5 mm inwards along their normals (so a patch of a flat face still has
+thickness). The pieces are the links of one pybullet body (fixed joints). Small convex pieces keep concave shapes
+concave (the gap behind a door handle stays open), which one convex hull would fill, and unlike a triangle mesh they
+also work for a free (dynamic) body in the shake test. Normals are the PCA normals of the k nearest neighbours, oriented
+by propagation along a minimum spanning tree (Hoppe et al.). A box or cylinder replaces the pieces when it explains the
+points (``build_object_model``, ``tasks.grasp.primitive_fit``) or when it is known (the true shape of a test object); on
+a part with a mount, the bar found in it (``tasks.grasp.part_cylinders``) is one exact piece, a 64-sided prism, beside
+the convex pieces of the rest.
 """
 
 from __future__ import annotations
@@ -28,11 +26,9 @@ from scipy.spatial import ConvexHull, QhullError, cKDTree
 
 from tasks.arrays import BoolArray, Points, Vector3
 from tasks.errors import GraspError
-from tasks.grasp.cap import find_cap
-from tasks.grasp.mount import find_mount
+from tasks.grasp.mount import find_cap, find_mount
 from tasks.grasp.part_cylinders import find_cylinder, prism_vertices
-from tasks.grasp.primitive_fit import TOLERANCE_M, fit_primitive, surface_distance
-from tasks.grasp.primitive_shape import MIN_POINTS, PrimitiveShape
+from tasks.grasp.primitive_fit import MIN_POINTS, TOLERANCE_M, PrimitiveShape, fit_primitive, surface_distance, within
 
 INWARD_OFFSET_M = 0.005
 """Thickness given to each surface patch of the point cloud, metres."""
@@ -51,6 +47,8 @@ this long (a palm buried in the object has points all around it: then it is igno
 MIN_PIECE_POINTS = 6
 """Fewest points of a piece made by a split."""
 
+CAP_MARGIN_M = 0.003
+"""Scan points within this of a cap's cylinder are the cap's (its 4 mm voxels' centroids lie up to 2 mm inside)."""
 GROUP_SPACINGS = 3.0
 """Points within this many median point spacings of each other belong to one group (``solid_pieces``)."""
 
@@ -60,7 +58,7 @@ class ObjectModel:
     """Object for planning: ``points`` (n, 3) m world, outward unit ``normals`` (n, 3), ``center`` (3,) m
     (centroid of the part), ``radius`` m (largest distance of a part point from the centre), convex ``parts``
     (each (k, 3) m world) or a ``primitive``. ``mount`` (n,), when known (found by ``tasks.grasp.mount`` when
-    ``build_object_model`` is given the approach, or given to ``labelled_model``), marks the points of the face
+    ``build_object_model`` is given the approach, or given to ``mounted_model``), marks the points of the face
     the part stands on (a handle's plate, a lever's door leaf) and all behind it: an obstacle to the closing
     fingers, not part of the free body when shaken or settled; its pieces are the last ``mount_parts`` of
     ``parts``."""
@@ -74,9 +72,7 @@ class ObjectModel:
     mount: BoolArray | None = None
     mount_parts: int = 0
     cylinder: PrimitiveShape | None = None
-    """The cylinder found in a mounted part (``part_cylinders``), its first piece, if any."""
-    cap: PrimitiveShape | None = None
-    """The cylinder of a cap (``tasks.grasp.cap``), when the part is one: its one piece (so its redraws too)."""
+    """The exact cylinder of a mounted part, its first piece, if any: a bar (``part_cylinders``) or a cap."""
 
     tree: cKDTree = field(init=False, repr=False)
     lower: Vector3 = field(init=False, repr=False)
@@ -90,10 +86,7 @@ class ObjectModel:
 
     def is_mount_piece(self, piece: npt.NDArray[np.int64]) -> BoolArray:
         """(m,) whether each convex piece index (into ``parts``) belongs to the mount."""
-        index = np.asarray(piece)
-        if not self.mount_parts:
-            return np.zeros(len(index), dtype=bool)
-        out: BoolArray = index >= len(self.parts) - self.mount_parts
+        out: BoolArray = (np.asarray(piece) >= len(self.parts) - self.mount_parts) & (self.mount_parts > 0)
         return out
 
     def without_mount(self) -> ObjectModel:
@@ -153,7 +146,7 @@ def estimate_normals(points: Points, k: int = 16, viewpoint: Vector3 | None = No
     tree of the kNN graph (Hoppe et al. 1992). With ``viewpoint`` (world, m; a place outside the object such as
     the demonstrated palm, from where a digitizer saw it), the points seen from it whose normals face it clearly
     (|cos| > 0.5) are the roots, their normals turned towards it, and the rest follow along the tree from them:
-    one root on a bar handle flipped the whole door face behind it. Without, or for parts the roots do not reach,
+    a single root would flip every normal behind a wrong one. Without, or for parts the roots do not reach,
     the root is the point farthest from the centroid."""
     n = len(points)
     k = min(k, n)
@@ -265,8 +258,6 @@ def build_object_model(
     rng: np.random.Generator,
     *,
     voxel_m: float = 0.004,
-    normals: Points | None = None,
-    primitive: PrimitiveShape | None = None,
     viewpoint: Vector3 | None = None,
     approach: Vector3 | None = None,
     fit: bool = True,
@@ -275,86 +266,65 @@ def build_object_model(
     ``viewpoint``, a place outside the object, when given), convex parts or primitive. With ``approach`` too (a
     unit vector, world: the demonstrated palm's +z), the mount the part stands on is looked for
     (``tasks.grasp.mount``) and, when found, kept apart (``ObjectModel.mount``); when none is, a cap the palm looks
-    down on (``tasks.grasp.cap``, on the points as given) is the part, one exact piece, and what it sits on the
-    mount (``ObjectModel.cap``). Without a mount and with
+    down on (``mount.find_cap``, on the points as given) is the part, one exact piece (``ObjectModel.cylinder``),
+    and what it sits on the mount. Without a mount and with
     ``fit``, a box or cylinder whose surface explains the points (``tasks.grasp.primitive_fit``: a carton, a
     bottle, a can) becomes the model's ``primitive`` instead of convex pieces, as GraspIt plans on shape primitives
     (Miller et al. 2003): the pieces' edges and seams fall differently with each k-means draw, and a fingertip that
     catches on a seam holds in the planner's check where the real smooth surface lets it slide."""
-    pts = scan = check_object_points(points)
-    if normals is None:
-        pts = voxel_downsample(pts, voxel_m)
-        if len(pts) < MIN_POINTS:
-            msg = f"object_points: {len(pts)} points after {voxel_m * 1000:.0f} mm voxels, need {MIN_POINTS}"
-            raise GraspError(msg)
-        nrm = estimate_normals(pts, viewpoint=viewpoint)
-    else:
-        nrm = np.asarray(normals, dtype=np.float64)
-        if nrm.shape != pts.shape:
-            msg = f"normals: expected shape {pts.shape}, got {nrm.shape}"
-            raise GraspError(msg)
-    if approach is not None and viewpoint is not None and primitive is None:
+    scan = check_object_points(points)
+    pts = voxel_downsample(scan, voxel_m)
+    if len(pts) < MIN_POINTS:
+        msg = f"object_points: {len(pts)} points after {voxel_m * 1000:.0f} mm voxels, need {MIN_POINTS}"
+        raise GraspError(msg)
+    nrm = estimate_normals(pts, viewpoint=viewpoint)
+    if approach is not None and viewpoint is not None:
         mount = find_mount(pts, viewpoint, approach)
         if not mount.any():
             cap = find_cap(scan, viewpoint, approach)
-            if cap is not None:
-                on_cap = cap.contains(pts)
-                if MIN_POINTS <= int(on_cap.sum()) < len(pts):  # a cap, and something beyond it
-                    return _capped(pts, nrm, ~on_cap, cap.shape(), rng)
+            on_cap = np.zeros(len(pts), dtype=bool) if cap is None else within(cap, pts, CAP_MARGIN_M)
+            if MIN_POINTS <= int(on_cap.sum()) < len(pts):  # a cap, and something beyond it
+                return mounted_model(pts, nrm, ~on_cap, rng, cylinder=cap)
         if mount.any() and int((~mount).sum()) >= MIN_POINTS:
-            return _mounted(pts, nrm, mount, rng, fit=fit)
-    center = pts.mean(axis=0)
-    radius = float(np.linalg.norm(pts - center, axis=1).max())
-    if primitive is None and fit:
-        fitted = fit_primitive(pts, nrm)
-        if fitted is not None:
-            return ObjectModel(pts, nrm, center, radius, (), fitted.shape)
-    parts = () if primitive is not None else convex_parts(pts, nrm, rng)
-    return ObjectModel(pts, nrm, center, radius, parts, primitive)
+            return mounted_model(pts, nrm, mount, rng, fit=fit)
+    center, radius = _centre_and_radius(pts)
+    fitted = fit_primitive(pts, nrm) if fit else None
+    if fitted is not None:
+        return ObjectModel(pts, nrm, center, radius, (), fitted.shape)
+    return ObjectModel(pts, nrm, center, radius, convex_parts(pts, nrm, rng))
 
 
-def labelled_model(
-    part: Points, mount: Points, rng: np.random.Generator, *, viewpoint: Vector3, voxel_m: float = 0.004
+def _centre_and_radius(points: Points) -> tuple[Vector3, float]:
+    """The centroid (3,) m of ``points`` and their largest distance (m) from it."""
+    center = points.mean(axis=0)
+    return center, float(np.linalg.norm(points - center, axis=1).max())
+
+
+def mounted_model(
+    points: Points,
+    normals: Points,
+    mount: BoolArray,
+    rng: np.random.Generator,
+    *,
+    fit: bool = True,
+    cylinder: PrimitiveShape | None = None,
 ) -> ObjectModel:
-    """A model whose mount is known (the true shapes of a test object): ``part`` and ``mount`` (n, 3) world m, each
-    downsampled to ``voxel_m``, normals of the whole oriented away from ``viewpoint``, each cut into its own
-    convex pieces (the part's first); centre and radius are the part's."""
-    grip = voxel_downsample(check_object_points(part, "part points"), voxel_m)
-    face = voxel_downsample(check_object_points(mount, "mount points"), voxel_m)
-    pts = np.concatenate([grip, face])
-    is_mount = np.arange(len(pts)) >= len(grip)
-    return _mounted(pts, estimate_normals(pts, viewpoint=viewpoint), is_mount, rng, fit=False)
-
-
-def _mounted(
-    points: Points, normals: Points, mount: BoolArray, rng: np.random.Generator, *, fit: bool = True
-) -> ObjectModel:
-    """A model with a mount: the part's pieces then the mount's convex pieces, each cut apart; the part's centre and
-    radius. With ``fit``, a cylinder explaining much of the part (a bar, a lever's arm:
-    ``part_cylinders.find_cylinder``) is one exact piece, the rest of the part convex pieces."""
-    grip = points[~mount]
-    center = grip.mean(axis=0)
-    radius = float(np.linalg.norm(grip - center, axis=1).max())
-    cylinder, pieces = (
-        _part_pieces(grip, normals[~mount], rng) if fit else (None, convex_parts(grip, normals[~mount], rng))
-    )
+    """A model with a mount: the part's pieces then the mount's convex pieces; the part's centre and radius. The
+    part is the prism of a known ``cylinder`` (a cap: the scan's points are voxel centroids, up to 2 mm inside its
+    rim and top) when given; else, with ``fit``, a cylinder explaining much of it (a bar, a lever's arm:
+    ``part_cylinders.find_cylinder``) is one exact piece and the rest of the part convex pieces; else its convex
+    pieces."""
+    grip, grip_normals = points[~mount], normals[~mount]
+    if cylinder is not None:
+        pieces: tuple[Points, ...] = (prism_vertices(cylinder),)
+    elif fit:
+        cylinder, pieces = _part_pieces(grip, grip_normals, rng)
+    else:
+        pieces = convex_parts(grip, grip_normals, rng)
     mount_pieces = convex_parts(points[mount], normals[mount], rng)
-    return ObjectModel(points, normals, center, radius, pieces + mount_pieces, None, mount, len(mount_pieces), cylinder)
-
-
-def _capped(
-    points: Points, normals: Points, mount: BoolArray, cap: PrimitiveShape, rng: np.random.Generator
-) -> ObjectModel:
-    """A model of a cap on its mount: the cap one exact piece, the prism of its cylinder ``cap`` (the scan's
-    points are voxel centroids, up to 2 mm inside its rim and top), then the mount's convex pieces."""
-
-    grip = points[~mount]
-    center = grip.mean(axis=0)
-    radius = float(np.linalg.norm(grip - center, axis=1).max())
-    mount_pieces = convex_parts(points[mount], normals[mount], rng)
-    return ObjectModel(
-        points, normals, center, radius, (prism_vertices(cap), *mount_pieces), None, mount, len(mount_pieces), cap=cap
-    )
+    center, radius = _centre_and_radius(grip)
+    parts = pieces + mount_pieces
+    return ObjectModel(points, normals, center, radius, parts, None, mount, len(mount_pieces), cylinder)
 
 
 def _part_pieces(
@@ -376,9 +346,8 @@ def solid_pieces(points: Points, normals: Points, rng: np.random.Generator) -> t
     (``_part_pieces``): per connected group (``GROUP_SPACINGS``), the group's hull thickened inwards as one solid
     piece when its points lie on that hull (``_on_hull``: a handle's post), else its k-means pieces
     (``convex_parts``: a lever's rose and neck). A scan sees a post's faces, not its inside: cut into k-means
-    patches, each 5 mm thick, the microwave handle's posts (boxes of 28 cm³) weighed about 15 cm³ in the hold
-    check and let a grasp hold that turned the exact handle 10°; groups of fewer than ``MIN_PIECE_POINTS`` points
-    are left out."""
+    patches, each 5 mm thick, a post would weigh half its volume in the hold check. Groups of fewer than
+    ``MIN_PIECE_POINTS`` points are left out."""
     tree = cKDTree(points)
     spacing = float(np.median(tree.query(points, k=2)[0][:, 1]))
     pairs = tree.query_pairs(GROUP_SPACINGS * spacing, output_type="ndarray")
@@ -406,12 +375,6 @@ def _on_hull(points: Points) -> bool:
     return float(np.percentile(depth, 95)) <= TOLERANCE_M
 
 
-def crop_points(points: Points, center: Vector3, radius_m: float) -> Points:
-    """Points within ``radius_m`` of ``center`` (world, metres)."""
-    kept: Points = points[np.linalg.norm(points - center, axis=1) <= radius_m]
-    return kept
-
-
 def _hull_volume(vertices: Points) -> float:
     try:
         return float(ConvexHull(vertices).volume)
@@ -421,52 +384,44 @@ def _hull_volume(vertices: Points) -> float:
 
 def load_object(client_id: int, model: ObjectModel, *, mass_kg: float = 0.0, friction: float = 0.8) -> int:
     """Create the object in pybullet (static when ``mass_kg`` is 0); returns the body id. World frame."""
-    if model.primitive is not None:
-        prim = model.primitive
-        if prim.kind == "box":
-            shape = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=list(prim.size), physicsClientId=client_id)
-        else:
-            shape = pb.createCollisionShape(
-                pb.GEOM_CYLINDER, radius=prim.size[0], height=2 * prim.size[1], physicsClientId=client_id
-            )
-        body = int(
-            pb.createMultiBody(mass_kg, shape, -1, list(prim.position), list(prim.quat_xyzw), physicsClientId=client_id)
+    prim = model.primitive
+    if prim is not None:
+        size = {"halfExtents": list(prim.size)} if prim.kind == "box" else {"radius": prim.size[0]}
+        kind = pb.GEOM_BOX if prim.kind == "box" else pb.GEOM_CYLINDER
+        shape = pb.createCollisionShape(kind, height=2 * prim.size[1], physicsClientId=client_id, **size)
+        body = pb.createMultiBody(
+            mass_kg, shape, -1, list(prim.position), list(prim.quat_xyzw), physicsClientId=client_id
         )
+    elif not model.parts:
+        msg = "object model has no collision parts"
+        raise GraspError(msg)
     else:
-        if not model.parts:
-            msg = "object model has no collision parts"
-            raise GraspError(msg)
         masses = np.zeros(len(model.parts))  # static: no hulls to compute (most loads in a plan are)
         if mass_kg > 0.0:  # the mass spread over the pieces by their hull volumes
             volumes = np.array([max(_hull_volume(p), 1e-9) for p in model.parts])
             masses = mass_kg * volumes / volumes.sum()
-        shapes = []
-        centres = []
-        for part in model.parts:
-            c = part.mean(axis=0)
-            centres.append(c)
-            shapes.append(
-                pb.createCollisionShape(pb.GEOM_MESH, vertices=(part - c).tolist(), physicsClientId=client_id)
-            )
+        centres = [part.mean(axis=0) for part in model.parts]
+        shapes = [
+            pb.createCollisionShape(pb.GEOM_MESH, vertices=(part - c).tolist(), physicsClientId=client_id)
+            for part, c in zip(model.parts, centres, strict=True)
+        ]
         n = len(shapes)
-        body = int(
-            pb.createMultiBody(
-                baseMass=float(masses[0]),
-                baseCollisionShapeIndex=shapes[0],
-                basePosition=(centres[0]).tolist(),
-                linkMasses=[float(m) for m in masses[1:]],
-                linkCollisionShapeIndices=shapes[1:],
-                linkVisualShapeIndices=[-1] * (n - 1),
-                linkPositions=[(c - centres[0]).tolist() for c in centres[1:]],
-                linkOrientations=[[0.0, 0.0, 0.0, 1.0]] * (n - 1),
-                linkInertialFramePositions=[[0.0, 0.0, 0.0]] * (n - 1),
-                linkInertialFrameOrientations=[[0.0, 0.0, 0.0, 1.0]] * (n - 1),
-                linkParentIndices=[0] * (n - 1),
-                linkJointTypes=[pb.JOINT_FIXED] * (n - 1),
-                linkJointAxis=[[0.0, 0.0, 1.0]] * (n - 1),
-                physicsClientId=client_id,
-            )
+        body = pb.createMultiBody(
+            baseMass=float(masses[0]),
+            baseCollisionShapeIndex=shapes[0],
+            basePosition=centres[0].tolist(),
+            linkMasses=[float(m) for m in masses[1:]],
+            linkCollisionShapeIndices=shapes[1:],
+            linkVisualShapeIndices=[-1] * (n - 1),
+            linkPositions=[(c - centres[0]).tolist() for c in centres[1:]],
+            linkOrientations=[[0.0, 0.0, 0.0, 1.0]] * (n - 1),
+            linkInertialFramePositions=[[0.0, 0.0, 0.0]] * (n - 1),
+            linkInertialFrameOrientations=[[0.0, 0.0, 0.0, 1.0]] * (n - 1),
+            linkParentIndices=[0] * (n - 1),
+            linkJointTypes=[pb.JOINT_FIXED] * (n - 1),
+            linkJointAxis=[[0.0, 0.0, 1.0]] * (n - 1),
+            physicsClientId=client_id,
         )
     for link in range(-1, pb.getNumJoints(body, physicsClientId=client_id)):
         pb.changeDynamics(body, link, lateralFriction=friction, physicsClientId=client_id)
-    return body
+    return int(body)

@@ -1,13 +1,13 @@
 """Cylinders found in a part's point cloud (metres, world frame): the bar of a handle, the arm of a lever.
 
-A handle or lever on its mount is no single primitive (``primitive_fit`` refuses it), but most of its surface is
-often one cylinder: the bar the hand wraps. Found by RANSAC (Schnabel, Wahl & Klein, "Efficient RANSAC for
-point-cloud shape detection", 2007): a hypothesis from two points with normals (the axis is perpendicular to both
-normals; the centre where the two normal lines meet in the plane across the axis), scored by the points within
-the tolerance of its side whose normals point away from its axis; the best one's inliers (the longest run of them
-along the axis) refined and checked by ``primitive_fit.fit_cylinder`` and its tolerances. Planned on as one
-exact piece (a 64-sided prism, ``prism_vertices``) beside the convex pieces of the rest of the part, so the bar's
-surface does not depend on how k-means cuts it.
+A handle or lever on its mount is no single primitive (``primitive_fit`` refuses it), but most of its surface is often
+one cylinder: the bar the hand wraps. Found by RANSAC (Schnabel, Wahl & Klein, "Efficient RANSAC for point-cloud shape
+detection", 2007): a hypothesis from two points with normals (the axis is perpendicular to both normals; the centre
+where the two normal lines meet in the plane across the axis), scored by the points within the tolerance of its side
+whose normals point away from its axis; the best one's inliers (the longest run of them along the axis) refined and
+checked by ``primitive_fit.fit_cylinder`` and its tolerances. Planned on as one exact piece (a 64-sided prism,
+``prism_vertices``) beside the convex pieces of the rest of the part, so the bar's surface does not depend on how
+k-means cuts it.
 """
 
 from __future__ import annotations
@@ -20,14 +20,15 @@ from scipy.spatial.transform import Rotation
 
 from tasks.arrays import BoolArray, Points
 from tasks.grasp.primitive_fit import (
+    MIN_POINTS,
     RMS_FRACTION,
     TOLERANCE_M,
     PrimitiveFit,
+    PrimitiveShape,
     fit_cylinder,
     supported,
     surface_distance,
 )
-from tasks.grasp.primitive_shape import MIN_POINTS, PrimitiveShape
 
 HYPOTHESES = 256
 """RANSAC hypotheses drawn per cylinder."""
@@ -93,16 +94,11 @@ def _best_hypothesis(points: Points, normals: Points, rng: np.random.Generator) 
     m_i = _across(normals[first], axis)
     m_j = _across(normals[second], axis)
     d = _across(points[first] - points[second], axis)
-    a11 = np.einsum("ij,ij->i", m_i, m_i)
-    a22 = np.einsum("ij,ij->i", m_j, m_j)
-    a12 = -np.einsum("ij,ij->i", m_i, m_j)
-    b1 = np.einsum("ij,ij->i", m_i, d)
-    b2 = -np.einsum("ij,ij->i", m_j, d)
-    det = a11 * a22 - a12 * a12
-    ok = np.abs(det) > 1e-9
-    safe = np.where(ok, det, 1.0)
-    t_i = (a22 * b1 - a12 * b2) / safe
-    t_j = (a11 * b2 - a12 * b1) / safe
+    pair = np.stack([m_i, -m_j], axis=2)  # t_i m_i - t_j m_j = d, solved by its normal equations
+    gram = np.einsum("kai,kaj->kij", pair, pair)
+    ok = np.abs(np.linalg.det(gram)) > 1e-9
+    t = np.linalg.solve(np.where(ok[:, None, None], gram, np.eye(2)), np.einsum("kai,ka->ki", pair, d)[..., None])
+    t_i, t_j = t[:, 0, 0], t[:, 1, 0]
     radius = (t_i + t_j) / 2.0
     ok &= (np.abs(t_i - t_j) <= LINE_MISS_M) & (radius >= RADIUS_RANGE_M[0]) & (radius <= RADIUS_RANGE_M[1])
     if not ok.any():

@@ -1,26 +1,30 @@
 """The online eigengrasp planner's search (Ciocarlie & Allen; GraspIt!'s online planner as used by Dang & Allen).
 
 **State space** (``SearchSpace``): x = (a1, a2, d, θr, θx, θy, u, v): the two Barrett eigengrasp amplitudes
-(``barrett.dofs_from_eigengrasps``), and the wrist pose relative to the demonstrated palm: the palm rotated from
-the demonstrated one by θx about its x axis, θy about its y axis and θr about the approach (+z), placed ``d``
-metres before the **pivot**, the point where the demonstrated approach meets the object, moved (u, v) across the
-approach (along the demonstrated palm's x and y). Bounds (``PlannerParams``): amplitudes ±4, d -30..200 mm, angles
-±30°, (u, v) ±50 mm: the demonstration fixes the approach and roughly the place, not the exact pose.
+(``barrett.dofs_from_eigengrasps``), and the wrist pose relative to the demonstrated palm: the palm rotated from the
+demonstrated one by θx about its x axis, θy about its y axis and θr about the approach (+z), placed ``d`` metres before
+the **pivot**, the point where the demonstrated approach meets the object, moved (u, v) across the approach (along the
+demonstrated palm's x and y). Bounds (``PlannerParams``): amplitudes ±4, d -30..200 mm, angles ±30°, (u, v) ±50 mm: the
+demonstration fixes the approach and roughly the place, not the exact pose.
 
-**Energy** (``contact_energy``): GraspIt!'s contact energy, the mean over the hand's virtual contacts of their
-distance to the object plus the misalignment of their normals with the surface's, in mm; a state whose hand
-surface enters the object is illegal.
+**Energy** (``contact_energy``): GraspIt!'s contact energy, the mean over the hand's virtual contacts of their distance
+to the object plus the misalignment of their normals with the surface's, in mm; a state whose hand surface enters the
+object is illegal.
 
-**Loop** (``anneal``): simulated annealing with GraspIt!'s online schedule (``Schedule``; Ingber's neighbour
-draws), a chain of ``steps`` per start; every state evaluated is offered to a **list of the best unique states**
-(``BestList``: the lowest energies, each differing from the others by a tenth of the search range in some variable).
+**Loop** (``anneal``): simulated annealing with GraspIt!'s online schedule (``temperature``; Ingber's neighbour draws),
+a chain of ``steps`` per start; every state evaluated is offered to a **list of the best unique states** (``BestList``:
+the lowest energies, each differing from the others by a tenth of the search range in some variable).
+
+**Proposals** (``GENERATORS``): where the states to execute come from, registered in one place; each generator maps
+(object model, search space, parameters, random generator) to ``Proposal`` s and proposes nothing where its
+mechanism does not apply; ``tasks.grasp.api.plan_on_model`` executes them all and ranks the grasps together.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -42,27 +46,19 @@ UNIQUE_FRACTION = 0.1
 """Two states are the same grasp when every variable differs by less than this fraction of its range."""
 
 
-@dataclass(frozen=True)
-class Schedule:
-    """GraspIt!'s online annealing constants (T0, start step, neighbour and acceptance constants, error scale):
-    T_n(k) = T0 exp(-0.24 k^(1/2)), T_a(k) = T0 exp(-0.54 k^(1/3)), a worse state accepted with probability
-    exp(-(E_new - E_old) 0.01 / T_a)."""
+T0 = 10.0
+K0 = 100
+NEIGHBOUR_C, NEIGHBOUR_D = 0.24, 2.0
+ACCEPT_C, ACCEPT_D = 0.54, 3.0
+ERROR_SCALE = 0.01
+"""GraspIt!'s online annealing schedule from step ``K0``: neighbour temperature T_n(k) = T0 exp(-0.24 k^(1/2)),
+acceptance temperature T_a(k) = T0 exp(-0.54 k^(1/3)), a worse state accepted with probability
+exp(-(E_new - E_old) 0.01 / T_a)."""
 
-    t0: float = 10.0
-    k0: int = 100
-    neighbour_c: float = 0.24
-    neighbour_d: float = 2.0
-    accept_c: float = 0.54
-    accept_d: float = 3.0
-    error_scale: float = 0.01
 
-    def neighbour_temperature(self, k: int) -> float:
-        """T_n(k) = T0 exp(-c k^(1/d))."""
-        return self.t0 * math.exp(-self.neighbour_c * k ** (1.0 / self.neighbour_d))
-
-    def accept_temperature(self, k: int) -> float:
-        """T_a(k) = T0 exp(-c k^(1/d))."""
-        return self.t0 * math.exp(-self.accept_c * k ** (1.0 / self.accept_d))
+def temperature(k: int, c: float, d: float) -> float:
+    """GraspIt!'s cooling at step k: T0 exp(-c k^(1/d))."""
+    return T0 * math.exp(-c * k ** (1.0 / d))
 
 
 @dataclass(frozen=True)
@@ -78,7 +74,6 @@ class PlannerParams:
     steps: int = 400
     chains: int = 4
     candidates: int = 12
-    schedule: Schedule = field(default_factory=Schedule)
     amplitude_limit: float = barrett.AMPLITUDE_LIMIT
     distance_range_m: tuple[float, float] = (-0.03, 0.20)
     angle_limit_rad: float = math.radians(30.0)
@@ -90,14 +85,6 @@ class PlannerParams:
     advance_scale_m: float = 0.05
     behind_scale_m: float = 0.01
     hold_checks: float = 3.0
-
-
-def _rot(axis: int, a: float) -> FloatArray:
-    c, s = math.cos(a), math.sin(a)
-    i, j = [(1, 2), (2, 0), (0, 1)][axis]
-    out = np.eye(3)
-    out[i, i], out[i, j], out[j, i], out[j, j] = c, -s, s, c
-    return out
 
 
 @dataclass(frozen=True)
@@ -118,10 +105,11 @@ class SearchSpace:
         return out
 
     def pose(self, x: FloatArray) -> tuple[FloatArray, Vector3]:
-        """Palm rotation (3, 3) and position (3,) in the world for state x."""
-        rot = self.seed_rot @ _rot(0, float(x[4])) @ _rot(1, float(x[5])) @ _rot(2, float(x[3]))
-        centre = self.pivot + self.seed_rot[:, 0] * float(x[6]) + self.seed_rot[:, 1] * float(x[7])
-        return rot, centre - rot[:, 2] * float(x[2])
+        """Palm rotation (..., 3, 3) and position (..., 3) in the world for states x (..., 8): the demonstrated palm
+        turned about its x, then its new y, then its new z axis (intrinsic XYZ)."""
+        rot = self.seed_rot @ Rotation.from_euler("XYZ", x[..., [4, 5, 3]]).as_matrix()
+        centre = self.pivot + x[..., 6, None] * self.seed_rot[:, 0] + x[..., 7, None] * self.seed_rot[:, 1]
+        return rot, centre - rot[..., :, 2] * x[..., 2, None]
 
     def state(self, rot: FloatArray, pos: Vector3, spread_rad: float) -> FloatArray:
         """The state of a palm pose (world) with the open hand at ``spread_rad``, a2 = 0 (the inverse of ``pose``)."""
@@ -133,6 +121,16 @@ class SearchSpace:
     def inside(self, x: FloatArray) -> bool:
         """Whether x lies within the bounds (1 µm slack)."""
         return bool(np.all(x >= self.lower - 1e-6) and np.all(x <= self.upper + 1e-6))
+
+
+@dataclass(frozen=True)
+class Proposal:
+    """A state to execute: who proposed it (``source``), the state x (8,), how far (m) the palm may approach to
+    contact (0 for a fingertip grasp whose palm is to stay where it is)."""
+
+    source: str
+    state: FloatArray
+    approach_m: float
 
 
 def search_space(model: ObjectModel, seed_rot: FloatArray, seed_pos: Vector3, params: PlannerParams) -> SearchSpace:
@@ -154,30 +152,31 @@ def search_space(model: ObjectModel, seed_rot: FloatArray, seed_pos: Vector3, pa
     return SearchSpace(seed_rot, np.asarray(seed_pos, dtype=np.float64), pivot, lower, upper)
 
 
-def contact_energy(model: ObjectModel, rot: FloatArray, pos: Vector3, dofs: FloatArray) -> float:
-    """Mean over the virtual contacts of |distance| + 50 (1 - n·p) in mm (n into the object, p the contact's
-    approach direction, both world), or ``ILLEGAL_ENERGY`` when the hand enters the object."""
-    tfs = barrett.link_transforms(barrett.joint_positions(dofs))
+def contact_energy(model: ObjectModel, rot: FloatArray, pos: Vector3, joints: FloatArray) -> FloatArray:
+    """(c,) mean over the virtual contacts of |distance| + 50 (1 - n·p) in mm (n into the object, p the contact's
+    approach direction, both world), or ``ILLEGAL_ENERGY`` where the hand enters the object, of c hand poses:
+    palm rotations (c, 3, 3) and positions (c, 3) (world, m), URDF joint angles (c, 9) rad."""
+    tfs = barrett.link_transforms(joints)
     vc_pos, vc_dir = barrett.VIRTUAL_CONTACTS.in_palm(tfs)
     surf_pos, _ = barrett.SURFACE_SAMPLES.in_palm(tfs)
-    surf_world = surf_pos @ rot.T + pos
-    inside_box = np.all((surf_world > model.lower) & (surf_world < model.upper), axis=1)
+    turn = np.swapaxes(rot, 1, 2)  # row vectors times rot^T: each hand's palm frame into the world
+    surf_world = surf_pos @ turn + pos[:, None, :]
+    inside_box = np.all((surf_world > model.lower) & (surf_world < model.upper), axis=2)
     probe = surf_world[inside_box]
+    illegal = np.zeros(len(rot), dtype=bool)
     if len(probe):
         _, idx = model.tree.query(probe)
         signed = np.einsum("ij,ij->i", probe - model.points[idx], model.normals[idx])
-        if np.any(signed < -PENETRATION_TOL_M):
-            return ILLEGAL_ENERGY
-    vc_world = vc_pos @ rot.T + pos
-    dist, idx = model.tree.query(vc_world)
-    align = 1.0 + np.einsum("ij,ij->i", model.normals[idx], vc_dir @ rot.T)  # 1 - n_in · p
-    return float(np.mean(1000.0 * dist + NORMAL_WEIGHT_MM * align))
+        illegal[np.nonzero(inside_box)[0][signed < -PENETRATION_TOL_M]] = True
+    dist, idx = model.tree.query(vc_pos @ turn + pos[:, None, :])
+    align = 1.0 + np.einsum("cmi,cmi->cm", model.normals[idx], vc_dir @ turn)  # 1 - n_in · p
+    return np.where(illegal, ILLEGAL_ENERGY, np.mean(1000.0 * dist + NORMAL_WEIGHT_MM * align, axis=1))
 
 
-def state_energy(model: ObjectModel, space: SearchSpace, x: FloatArray) -> float:
-    """``contact_energy`` (mm) of state x in ``space``."""
+def state_energy(model: ObjectModel, space: SearchSpace, x: FloatArray) -> FloatArray:
+    """(c,) ``contact_energy`` (mm) of states x (c, 8) in ``space``."""
     rot, pos = space.pose(x)
-    return contact_energy(model, rot, pos, barrett.dofs_from_eigengrasps(float(x[0]), float(x[1])))
+    return contact_energy(model, rot, pos, barrett.joints_from_eigengrasps(x[:, :2]))
 
 
 def ingber_from_uniforms(temperature: float, u: FloatArray) -> FloatArray:
@@ -219,26 +218,154 @@ class BestList:
 
 
 def anneal(  # noqa: PLR0917 -- the annealing inputs, named at call sites
-    energy: Callable[[FloatArray], float],
-    start: FloatArray,
+    energy: Callable[[FloatArray], FloatArray],
+    starts: FloatArray,
     space: SearchSpace,
     rng: np.random.Generator,
     steps: int,
     best: BestList,
-    schedule: Schedule | None = None,
 ) -> None:
-    """One annealing chain of ``steps`` from ``start`` within the space's bounds, every state offered to ``best``.
-    A neighbour moves each variable by half the range times an Ingber draw at the neighbour temperature."""
-    sched = schedule or Schedule()
+    """One annealing chain of ``steps`` from each of ``starts`` (c, 8) within the space's bounds, the chains side by
+    side (one call of the batched ``energy`` per step), each drawing its own numbers in turn; then every state of
+    chain 0, of chain 1, ... offered to ``best``. A neighbour moves each variable by half the range times an Ingber
+    draw at the neighbour temperature."""
     jump = (space.upper - space.lower) / 2.0
-    x = np.clip(np.asarray(start, dtype=np.float64), space.lower, space.upper)
+    x = np.clip(np.asarray(starts, dtype=np.float64), space.lower, space.upper)
+    draws = np.stack([rng.random((steps, x.shape[1] + 1)) for _ in x])
     e = energy(x)
-    best.offer(x, e)
-    draws = rng.random((steps, len(x) + 1))
-    for k, row in enumerate(draws, start=sched.k0):
-        y = np.clip(x + jump * ingber_from_uniforms(sched.neighbour_temperature(k), row[:-1]), space.lower, space.upper)
+    seen, seen_e = [x], [e]
+    for k in range(steps):
+        move = ingber_from_uniforms(temperature(k + K0, NEIGHBOUR_C, NEIGHBOUR_D), draws[:, k, :-1])
+        y = np.clip(x + jump * move, space.lower, space.upper)
         e_new = energy(y)
-        best.offer(y, e_new)
-        worse = (e_new - e) * sched.error_scale / sched.accept_temperature(k)
-        if e_new < e or (e_new < ILLEGAL_ENERGY and float(row[-1]) < math.exp(-min(worse, 700.0))):
-            x, e = y, e_new
+        seen.append(y)
+        seen_e.append(e_new)
+        worse = (e_new - e) * ERROR_SCALE / temperature(k + K0, ACCEPT_C, ACCEPT_D)
+        take = (e_new < e) | ((e_new < ILLEGAL_ENERGY) & (draws[:, k, -1] < np.exp(-np.clip(worse, 0.0, 700.0))))
+        x, e = np.where(take[:, None], y, x), np.where(take, e_new, e)
+    for chain_x, chain_e in zip(np.stack(seen, axis=1), np.stack(seen_e, axis=1), strict=True):
+        for state, energy_mm in zip(chain_x, chain_e, strict=True):
+            best.offer(state, float(energy_mm))
+
+
+SPREADS_RAD = (0.0, 1.13, math.pi / 2)
+"""Spreads of the demonstrated palm's proposals: the thumb opposite fingers 1 and 2, GraspIt!'s origin posture, and
+fingers 1 and 2 face to face."""
+TIP_SPREADS_RAD = (0.0, math.pi / 2)
+"""Spreads of the fingertip proposals: three fingertips two against one, then two face to face."""
+ROLLS_RAD = (0.0, math.radians(15.0), math.radians(-15.0))
+"""Rolls about the demonstrated approach: a hand closes round a bar or a box at any roll within a few tens of
+degrees of the demonstrated one."""
+HOLD_BACK_M = 0.02
+"""The demonstrated palm held back by about a finger's width, so the fingers close round the part, not on top."""
+SLIDES_M = (0.025, 0.05)
+"""Distances slid along a bar: a finger's width and two."""
+TIP_DISTANCES_M = (0.06, 0.07, 0.08, 0.09, 0.10)
+"""Palm distances from the part's surface at which the open fingertips (126 mm fingers on 50 mm knuckles) close on
+a part 10-50 mm across."""
+CHAIN_SPREADS = (-1.13, 0.0, 0.44, 2.0)
+"""Start amplitude a1 of the annealing chains: spread 0, 1.13 (the origin), π/2 and π."""
+
+Generator = Callable[[ObjectModel, SearchSpace, PlannerParams, np.random.Generator], list[Proposal]]
+
+
+def _at(spread: float, d: float, roll: float = 0.0, u: float = 0.0, v: float = 0.0) -> np.ndarray:
+    """The state of the open hand at ``spread`` (rad), ``d`` before the pivot, rolled, moved (u, v) across."""
+    return np.array([barrett.spread_amplitude(spread), 0.0, d, roll, 0.0, 0.0, u, v])
+
+
+def annealed(model: ObjectModel, space: SearchSpace, params: PlannerParams, rng: np.random.Generator) -> list[Proposal]:
+    """GraspIt!'s online eigengrasp planner: the best unique states of ``params.chains`` annealing chains from the
+    demonstrated palm under the contact energy (``planner.anneal``)."""
+    best = BestList(params.candidates, space.upper - space.lower)
+    d0 = float(np.clip(space.pivot_m, *params.distance_range_m))
+    starts = np.array([[a1, -1.0, d0, 0.0, 0.0, 0.0, 0.0, 0.0] for a1 in CHAIN_SPREADS[: params.chains]])
+    anneal(lambda x: state_energy(model, space, x), starts, space, rng, params.steps, best)
+    return [Proposal("annealed", x, params.approach_max_m) for _, x in best.states]
+
+
+def demonstrated(
+    _model: ObjectModel, space: SearchSpace, params: PlannerParams, _rng: np.random.Generator
+) -> list[Proposal]:
+    """The demonstrated palm, held back ``HOLD_BACK_M`` and rolled ``ROLLS_RAD``, at ``SPREADS_RAD``: what the
+    demonstrator did, which the energy does not always rank first."""
+    return [
+        Proposal("demonstrated", _at(spread, space.pivot_m + back, roll), params.approach_max_m)
+        for back in (0.0, HOLD_BACK_M)
+        for roll in ROLLS_RAD
+        for spread in SPREADS_RAD
+    ]
+
+
+def _bar_axis(model: ObjectModel, space: SearchSpace) -> np.ndarray | None:
+    """The unit axis (world) of the model's bar when it lies within 60° of square to the demonstrated approach (a bar
+    along the approach, a cap, is no bar to slide along or pinch across), else None."""
+    if model.cylinder is None:
+        return None
+    axis = Rotation.from_quat(model.cylinder.quat_xyzw).apply([0.0, 0.0, 1.0])
+    return axis if math.hypot(*(axis @ space.seed_rot[:, :2])) >= 0.5 else None
+
+
+def along_the_bar(
+    model: ObjectModel, space: SearchSpace, _params: PlannerParams, _rng: np.random.Generator
+) -> list[Proposal]:
+    """The demonstrated palm slid ``SLIDES_M`` either way along the bar (its axis taken across the approach), at
+    the pivot and held back, at ``TIP_SPREADS_RAD``, closed where it is. A bar is held anywhere along it, and the
+    demonstrated place may be where a post or the fingers' sweep into the plate behind it gets in the way."""
+    axis = _bar_axis(model, space)
+    if axis is None:
+        return []
+    u, v = axis @ space.seed_rot[:, :2] / math.hypot(*(axis @ space.seed_rot[:, :2]))
+    return [
+        Proposal("along the bar", _at(spread, space.pivot_m + back, 0.0, s * u, s * v), 0.0)
+        for slide in SLIDES_M
+        for s in (slide, -slide)
+        for back in (0.0, HOLD_BACK_M)
+        for spread in TIP_SPREADS_RAD
+    ]
+
+
+def pinch(model: ObjectModel, _space: SearchSpace, _params: PlannerParams, _rng: np.random.Generator) -> list[Proposal]:
+    """On a mounted part: the demonstrated palm held back ``TIP_DISTANCES_M`` from the pivot, rolled ``ROLLS_RAD``,
+    at ``TIP_SPREADS_RAD``, closed where it is: fingers curled round a bar reach 45 mm or more in front of the palm,
+    so on a bar 20-50 mm before its plate they meet the plate; the open fingertips close 80-100 mm in front of it."""
+    if model.mount is None:
+        return []
+    return [
+        Proposal("pinch", _at(spread, d, roll), 0.0)
+        for roll in ROLLS_RAD
+        for d in TIP_DISTANCES_M
+        for spread in TIP_SPREADS_RAD
+    ]
+
+
+def square_pinch(
+    model: ObjectModel, space: SearchSpace, _params: PlannerParams, _rng: np.random.Generator
+) -> list[Proposal]:
+    """On a part with a bar: palms square to the bar, +x along it, through its axis where it passes nearest the
+    demonstrated palm, ``TIP_DISTANCES_M`` from its surface, at ``TIP_SPREADS_RAD``, closed where they are; those
+    outside the search space left out: tilted fingertips meet a round bar at different heights and a squeeze rolls it
+    out of them."""
+    axis = _bar_axis(model, space)
+    if axis is None or model.cylinder is None:
+        return []
+    approach = space.seed_rot[:, 2]
+    square = approach - float(approach @ axis) * axis
+    z = square / float(np.linalg.norm(square))
+    x = axis if float(axis @ space.seed_rot[:, 0]) >= 0.0 else -axis
+    rot = np.stack([x, np.cross(z, x), z], axis=1)
+    centre = np.asarray(model.cylinder.position, dtype=np.float64)
+    half = float(model.cylinder.size[1])
+    front = centre + float(np.clip((space.seed_pos - centre) @ axis, -half, half)) * axis - z * model.cylinder.size[0]
+    states = [space.state(rot, front - z * d, spread) for spread in TIP_SPREADS_RAD for d in TIP_DISTANCES_M]
+    return [Proposal("square pinch", s, 0.0) for s in states if space.inside(s)]
+
+
+GENERATORS: dict[str, Generator] = {
+    "demonstrated": demonstrated,
+    "annealed": annealed,
+    "along the bar": along_the_bar,
+    "pinch": pinch,
+    "square pinch": square_pinch,
+}
+"""Every generator, by name: ``tasks.grasp.api.plan_on_model`` executes the proposals of all of them."""

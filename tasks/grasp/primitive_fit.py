@@ -1,22 +1,18 @@
 """A box or a cylinder fitted to an object's point cloud (metres, world frame), for planning on the primitive.
 
 When a scanned part is in fact a box or a cylinder (a carton, a bottle, a can) the planner may plan on the fitted
-primitive instead of the k-means convex pieces, as GraspIt does with shape primitives (Miller, Knoop, Christensen
-& Allen, "Automatic grasp planning using shape primitives", ICRA 2003). Box: a frame from the normals voted into
-two perpendicular face directions, extents from point quantiles. Cylinder: the axis is the direction the side
-normals are perpendicular to (smallest eigenvector of their scatter, from each eigenvector of the normals' scatter
-and of the points' covariance), an algebraic circle fit of the side points, the half height from the points'
-extent along the axis. Both are refined by ``scipy.optimize.least_squares`` (soft-L1 loss) over pose and size,
-minimising the distance of the points to the closed surface, and kept only when that surface explains the points
-(``TOLERANCE_M``) and the points cover the shape (``FACE_COVERAGE``, ``MIN_SIDE_ARC``).
+primitive instead of the k-means convex pieces, as GraspIt does with shape primitives (Miller, Knoop, Christensen &
+Allen, "Automatic grasp planning using shape primitives", ICRA 2003). Box: a frame from the normals voted into two
+perpendicular face directions, extents from point quantiles. Cylinder: the axis is the direction the side normals are
+perpendicular to (smallest eigenvector of their scatter, from each eigenvector of the normals' scatter and of the
+points' covariance), an algebraic circle fit of the side points, the half height from the points' extent along the axis.
+Both are refined by ``scipy.optimize.least_squares`` (soft-L1 loss) over pose and size, minimising the distance of the
+points to the closed surface, and kept only when that surface explains the points (``TOLERANCE_M``) and the points cover
+the shape (``FACE_COVERAGE``, ``MIN_SIDE_ARC``).
 
 A fit describes the seen part: a face or cap the points do not reach is placed where the seen faces end.
 
-Time (CPU, ``time.process_time``, on a shared 2-core machine): 15-19 ms per ``fit_primitive`` on 3000
-raw noisy points of a 30 x 80 x 120 mm box or an r 15 mm, 160 mm cylinder, 13-16 ms on their 1100-1600 4 mm voxels,
-the same with
-``OPENBLAS_NUM_THREADS=1``: OpenBLAS threads spin on a loaded machine (a 400 x 400 normal product and the trust
-region's SVD took 5-20 ms each that way), hence ``einsum`` for the votes and ``lsmr`` for the steps.
+The votes use ``einsum`` and the steps ``lsmr``: OpenBLAS threads spin on a loaded machine.
 """
 
 from __future__ import annotations
@@ -29,17 +25,17 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
-from tasks.arrays import FloatArray, Points, Vector3
-from tasks.errors import GraspError
-from tasks.grasp.primitive_shape import MIN_POINTS, PrimitiveShape
+from tasks.arrays import BoolArray, FloatArray, Points, Vector3
+from tasks.fit.geometry import perpendicular_basis
 
 Kind = Literal["box", "cylinder"]
 """The primitives fitted."""
 
+MIN_POINTS = 30
+"""Fewest object points a grasp is planned on."""
 TOLERANCE_M = 0.0015
-"""Default largest 95th percentile of the point-to-surface distance, metres. Exact samples with 0.3 mm noise, 4 mm
-voxels and ``estimate_normals`` normals give 0.4-0.65 mm; the sphere, the handle on its posts, the box with a can
-and the L of the tests 4 mm and more (a knob on a box: ``RMS_FRACTION``; small spheres: ``SMALL_OBJECT_TOLERANCE``)."""
+"""Default largest 95th percentile of the point-to-surface distance, metres: exact samples with 0.3 mm noise, 4 mm
+voxels and ``estimate_normals`` normals give 0.4-0.65 mm; a sphere or a handle on its posts 4 mm and more."""
 RMS_FRACTION = 0.55
 """Largest RMS distance as a fraction of the tolerance (0.8 mm at the default; clean fits give 0.2-0.4 mm): a few
 per cent of the points far off the surface (a knob, a post) raise the RMS where the 95th percentile misses them."""
@@ -49,8 +45,7 @@ a scan's error grows with the object: 1.5 mm from 150 mm on)."""
 SMALL_OBJECT_TOLERANCE = 0.1
 SMALL_OBJECT_FLOOR = 0.6
 """The tolerance shrinks to a tenth of the object's radius, but not below 0.6 of the given one (0.9 mm): a sphere's
-best cylinder or box misses it by a 95th percentile of 0.145 radii (spheres of 8-15 mm radius passed as cylinders
-under a flat 1.5 mm), true primitives of 10-45 mm radius gave at most 0.05 radii (0.63 mm) after 4 mm voxels."""
+best cylinder or box misses it by a 95th percentile of 0.145 radii, a true primitive's fit by at most 0.05 radii."""
 LOSS_SCALE_M = 0.001
 """Soft-L1 scale of the refinement, metres: points farther off than this weigh less (noise is about 0.3 mm)."""
 REFINE_POINTS = 800
@@ -78,6 +73,17 @@ empty bins; one view shows 180°), which fixes the radius, and in each of 4 band
 
 
 @dataclass(frozen=True)
+class PrimitiveShape:
+    """A known shape in the world: ``kind`` box (``size`` = half extents, m) or cylinder (radius, half height,
+    axis = local z); ``position`` (3,) m and ``quat_xyzw`` (4,) of its centre frame."""
+
+    kind: Kind
+    size: tuple[float, float, float]
+    position: tuple[float, float, float]
+    quat_xyzw: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 1.0)
+
+
+@dataclass(frozen=True)
 class PrimitiveFit:
     """A fitted primitive: ``shape`` (world, m), ``rms_m`` and ``p95_m`` the RMS and 95th percentile of the points'
     distances to its surface (m)."""
@@ -94,20 +100,14 @@ def surface_distance(shape: PrimitiveShape, points: Points) -> FloatArray:
 
 def fit_primitive(points: Points, normals: Points, *, tolerance_m: float = TOLERANCE_M) -> PrimitiveFit | None:
     """The box or cylinder whose surface explains (n, 3) world ``points`` (m) with outward unit ``normals`` (n, 3;
-    roughly right, signs may flip): 95th percentile distance within ``tolerance_m`` (as ``tolerance`` scales it
-    with the object), RMS within ``RMS_FRACTION`` of it, and the points covering the shape;
-    the one of lower RMS when both do. None when neither does, or for fewer than ``MIN_POINTS`` usable points
-    (finite, normal longer than 0.5); ``GraspError`` for arrays of the wrong shape."""
-    pts, nrm = _check(points, normals)
-    if len(pts) < MIN_POINTS:
+    signs may flip): 95th percentile distance within ``tolerance_m`` (as ``tolerance`` scales it with the object),
+    RMS within ``RMS_FRACTION`` of it, and the points covering the shape; the one of lower RMS when both do. None
+    when neither does, or for fewer than ``MIN_POINTS`` points."""
+    if len(points) < MIN_POINTS:
         return None
-    tol = tolerance(tolerance_m, float(np.linalg.norm(pts - pts.mean(axis=0), axis=1).max()))
-    kept = []
-    for fit in (_box_fit(pts, nrm), _cylinder_fit(pts, nrm)):
-        if fit is None:
-            continue
-        if fit.p95_m <= tol and fit.rms_m <= RMS_FRACTION * tol and supported(fit.shape, pts, tol):
-            kept.append(fit)
+    tol = tolerance(tolerance_m, float(np.linalg.norm(points - points.mean(axis=0), axis=1).max()))
+    fits = [fit for fit in (fit_box(points, normals), fit_cylinder(points, normals)) if fit is not None]
+    kept = [f for f in fits if f.p95_m <= tol and f.rms_m <= RMS_FRACTION * tol and supported(f.shape, points, tol)]
     return min(kept, key=lambda f: f.rms_m, default=None)
 
 
@@ -120,58 +120,31 @@ def tolerance(tolerance_m: float, radius_m: float) -> float:
 
 
 def fit_box(points: Points, normals: Points) -> PrimitiveFit | None:
-    """The best box through (n, 3) world ``points`` (m) with ``normals`` (n, 3), however poor (None when the normals
-    show no two perpendicular directions); checked by ``fit_primitive``."""
-    pts, nrm = _check(points, normals)
-    return _box_fit(pts, nrm) if len(pts) >= MIN_POINTS else None
+    """The best box through (n, 3) world ``points`` (m) with unit ``normals`` (n, 3), however poor (None when the
+    normals show no two perpendicular directions); checked by ``fit_primitive``."""
+    frame = _normal_frame(normals)
+    if frame is None:
+        return None
+    lo, hi = np.quantile(points @ frame, [0.005, 0.995], axis=0)
+    return _refined("box", points, frame, frame @ ((lo + hi) / 2), (hi - lo) / 2)
 
 
 def fit_cylinder(points: Points, normals: Points) -> PrimitiveFit | None:
-    """The best cylinder through (n, 3) world ``points`` (m) with ``normals`` (n, 3), however poor (None when no
-    axis leaves enough side points for a circle); checked by ``fit_primitive``."""
-    pts, nrm = _check(points, normals)
-    return _cylinder_fit(pts, nrm) if len(pts) >= MIN_POINTS else None
-
-
-def _box_fit(pts: Points, nrm: Points) -> PrimitiveFit | None:
-    """``fit_box`` on points and unit normals already checked (``_check``, at least ``MIN_POINTS``)."""
-    frame = _normal_frame(nrm)
-    if frame is None:
-        return None
-    lo, hi = np.quantile(pts @ frame, [0.005, 0.995], axis=0)
-    return _refined("box", pts, frame, frame @ ((lo + hi) / 2), (hi - lo) / 2)
-
-
-def _cylinder_fit(pts: Points, nrm: Points) -> PrimitiveFit | None:
-    """``fit_cylinder`` on points and unit normals already checked (``_check``, at least ``MIN_POINTS``)."""
-    starts = [s for s in (_cylinder_start(pts, nrm, axis) for axis in _axis_candidates(pts, nrm)) if s is not None]
+    """The best cylinder through (n, 3) world ``points`` (m) with unit ``normals`` (n, 3), however poor (None when
+    no axis leaves enough side points for a circle); checked by ``fit_primitive``."""
+    axes = _axis_candidates(points, normals)
+    starts = [s for s in (_cylinder_start(points, normals, axis) for axis in axes) if s is not None]
     if not starts:
         return None
-    frame, centre, size = min(starts, key=lambda s: _robust_spread(pts, s))
-    return _refined("cylinder", pts, frame, centre, size)
-
-
-def _check(points: object, normals: object) -> tuple[Points, Points]:
-    """Float64 points and unit normals, without the rows holding a non-finite value or a normal shorter than 0.5
-    (unknown); ``GraspError`` on wrong shapes."""
-    pts = np.asarray(points, dtype=np.float64)
-    nrm = np.asarray(normals, dtype=np.float64)
-    if pts.ndim != 2 or pts.shape[1] != 3:
-        msg = f"points: expected shape (n, 3), got {pts.shape}"
-        raise GraspError(msg)
-    if nrm.shape != pts.shape:
-        msg = f"normals: expected shape {pts.shape} (as the points), got {nrm.shape}"
-        raise GraspError(msg)
-    length = np.linalg.norm(nrm, axis=1)
-    usable = np.all(np.isfinite(pts), axis=1) & np.isfinite(length) & (length > 0.5)
-    return pts[usable], nrm[usable] / length[usable, None]
+    frame, centre, size = min(starts, key=lambda s: _robust_spread(points, s))
+    return _refined("cylinder", points, frame, centre, size)
 
 
 def _refined(kind: Kind, points: Points, frame: FloatArray, centre: Vector3, size: Vector3) -> PrimitiveFit:
     """The shape refined from a start (``frame`` (3, 3) columns = local axes, ``centre`` (3,) m, ``size`` (3,) m)
-    by least squares (soft-L1) of the signed distances of at most ``REFINE_POINTS`` of ``points`` to its surface,
-    then the distances of all ``points`` to it. Parameters: a rotation vector after ``frame`` (about local x, y
-    only for a cylinder), the centre's offset (m), the sizes (m)."""
+    by least squares (soft-L1, a finite-difference Jacobian) of the signed distances of at most ``REFINE_POINTS`` of
+    ``points`` to its surface, then the distances of all ``points`` to it. Parameters: a rotation vector after
+    ``frame`` (about local x, y only for a cylinder), the centre's offset (m), the sizes (m)."""
     sub = points[:: max(1, len(points) // REFINE_POINTS)]
     n_rot, n_size = (3, 3) if kind == "box" else (2, 2)
 
@@ -182,28 +155,14 @@ def _refined(kind: Kind, points: Points, frame: FloatArray, centre: Vector3, siz
         out_size[:n_size] = np.abs(x[n_rot + 3 :])
         return frame @ Rotation.from_rotvec(rotvec).as_matrix(), centre + x[n_rot : n_rot + 3], out_size
 
-    last: dict[bytes, tuple[FloatArray, FloatArray]] = {}
-
-    def evaluate(x: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """Residuals (k,) m and Jacobian (k, parameters) at ``x``, kept for the next call at the same ``x``."""
-        key = x.tobytes()
-        if key not in last:
-            rot, c, s = unpack(x)
-            local = (sub - c) @ rot
-            distance, grad_local, grad_size = _distance_and_gradients(kind, local, s)
-            # local = R^T (p - c), R = frame exp([w]): d local / d w = [local]x, up to the right Jacobian of exp,
-            # which is invertible and so leaves the stationary points where they are
-            d_rot = np.cross(grad_local, local)[:, :n_rot]
-            d_size = grad_size[:, :n_size] * np.sign(x[n_rot + 3 :])
-            last.clear()
-            last[key] = distance, np.concatenate([d_rot, -grad_local @ rot.T, d_size], axis=1)
-        return last[key]
+    def residuals(x: FloatArray) -> FloatArray:
+        rot, c, s = unpack(x)
+        return _signed_distance(kind, (sub - c) @ rot, s)
 
     x0 = np.concatenate([np.zeros(n_rot + 3), size[:n_size]])
     result = least_squares(
-        lambda x: evaluate(x)[0],
+        residuals,
         x0,
-        jac=lambda x: evaluate(x)[1],
         loss="soft_l1",
         f_scale=LOSS_SCALE_M,
         x_scale="jac",
@@ -232,37 +191,26 @@ def _local(shape: PrimitiveShape, points: Points) -> Points:
 def _signed_distance(kind: Kind, local: Points, size: Vector3) -> FloatArray:
     """(n,) signed distance (m, negative inside) of centre-frame points to a box (half extents ``size``) or a
     closed cylinder (``size`` = radius, half height, 0; axis z)."""
-    return _distance_and_gradients(kind, local, size)[0]
-
-
-def _distance_and_gradients(kind: Kind, local: Points, size: Vector3) -> tuple[FloatArray, Points, Points]:
-    """Signed distance (n,) m of centre-frame points to the surface (as ``_signed_distance``), its gradient with
-    respect to the local point (n, 3) and to the size parameters (n, 3; the cylinder's third column zero)."""
-    if kind == "box":
-        excess = np.abs(local) - size
-        d_excess_d_local = [np.sign(local)]
-    else:
-        radial_dist = np.hypot(local[:, 0], local[:, 1])
-        excess = np.stack([radial_dist - size[0], np.abs(local[:, 2]) - size[1]], axis=1)
-        radial = local[:, :2] / np.maximum(radial_dist, 1e-12)[:, None]
-        d_excess_d_local = [np.column_stack([radial, np.zeros(len(local))]), np.sign(local[:, 2])]
+    excess = _excess(kind, local, size)
     over = np.maximum(excess, 0.0)
-    outside = np.sqrt(np.einsum("ij,ij->i", over, over))
-    deepest = np.argmax(excess, axis=1)
-    inside = np.take_along_axis(excess, deepest[:, None], axis=1)[:, 0]
-    distance = outside + np.minimum(inside, 0.0)
-    grad_excess = over / np.maximum(outside, 1e-12)[:, None]
-    is_inside = outside <= 0.0
-    grad_excess[is_inside] = 0.0
-    grad_excess[is_inside, deepest[is_inside]] = 1.0
+    out: FloatArray = np.sqrt(np.einsum("ij,ij->i", over, over)) + np.minimum(excess.max(axis=1), 0.0)
+    return out
+
+
+def _excess(kind: Kind, local: Points, size: Vector3) -> Points:
+    """How far (m) centre-frame points lie outside each pair of a box's faces (n, 3), or outside a cylinder's side
+    and its pair of end faces (n, 2); negative inside."""
     if kind == "box":
-        grad_local = grad_excess * d_excess_d_local[0]
-        grad_size = -grad_excess
-    else:
-        grad_local = grad_excess[:, :1] * d_excess_d_local[0]
-        grad_local[:, 2] += grad_excess[:, 1] * d_excess_d_local[1]
-        grad_size = np.column_stack([-grad_excess, np.zeros(len(local))])
-    return distance, grad_local, grad_size
+        out: Points = np.abs(local) - size
+        return out
+    return np.stack([np.hypot(local[:, 0], local[:, 1]) - size[0], np.abs(local[:, 2]) - size[1]], axis=1)
+
+
+def within(shape: PrimitiveShape, points: Points, margin_m: float) -> BoolArray:
+    """(n,) whether each of (n, 3) world ``points`` lies inside ``shape`` grown by ``margin_m`` (m) from each face."""
+    size = np.asarray(shape.size, dtype=np.float64)
+    inside: BoolArray = np.all(_excess(shape.kind, _local(shape, points), size) <= margin_m, axis=1)
+    return inside
 
 
 def _normal_frame(normals: Points) -> FloatArray | None:
@@ -310,10 +258,7 @@ def _axis_candidates(points: Points, normals: Points) -> list[Vector3]:
 def _cylinder_start(points: Points, normals: Points, axis: Vector3) -> tuple[FloatArray, Vector3, Vector3] | None:
     """Frame (3, 3; z = ``axis``), centre (3,) m and (radius, half height, 0) m: a circle fitted to the side points
     (algebraic least squares, Kåsa) and the points' 0.5-99.5 % extent along the axis; None without side points."""
-    helper = np.array([1.0, 0.0, 0.0]) if abs(axis[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    x_dir = np.cross(helper, axis)
-    x_dir /= np.linalg.norm(x_dir)
-    frame = np.stack([x_dir, np.cross(axis, x_dir), axis], axis=1)
+    frame = np.stack([*perpendicular_basis(axis), axis], axis=1)
     local = points @ frame
     side = local[np.abs(normals @ axis) < SIDE_COS]
     if len(side) < MIN_POINTS:

@@ -1,16 +1,16 @@
 """Grasp wrench space qualities (Ferrari & Canny 1992; GraspIt!'s QualEpsilon and QualVolume).
 
-Each contact contributes the 8 edges of a linearised Coulomb friction cone (normal component 1, friction
-coefficient ``mu``); the wrench of an edge force ``f`` at contact ``c`` is ``(f, (c - centre) × f / radius)``,
-torques divided by the object's largest radius so forces and torques are comparable. The grasp wrench space
-is the convex hull (scipy's qhull) of all edge wrenches: epsilon = radius of the largest origin-centred ball
-inside it (0 when the origin is not strictly inside, i.e. no force closure), volume = its 6-D volume.
+Each contact contributes the 8 edges of a linearised Coulomb friction cone (normal component 1, friction coefficient
+``mu``); the wrench of an edge force ``f`` at contact ``c`` is ``(f, (c - centre) × f / radius)``, torques divided by
+the object's largest radius so forces and torques are comparable. The grasp wrench space is the convex hull (scipy's
+qhull) of all edge wrenches: epsilon = radius of the largest origin-centred ball inside it (0 when the origin is not
+strictly inside, i.e. no force closure), volume = its 6-D volume.
 
-Force closure is decided by one linear program (scipy's HiGHS), without the hull: the origin lies inside the
-hull exactly when the edge wrenches span the six dimensions and a combination of all of them with every weight
-positive sums to zero (the relative interior of a hull is the set of such combinations). The hull (qhull's 6-D hull
-of up to 128 edge wrenches takes up to 35 ms) is built only when epsilon or the volume is asked for: the planner
-ranks and checks grasps by force closure and reports the qualities of the one it keeps.
+Force closure is decided by one linear program (scipy's HiGHS), without the hull: the origin lies inside the hull
+exactly when the edge wrenches span the six dimensions and a combination of all of them with every weight positive sums
+to zero (the relative interior of a hull is the set of such combinations). The hull (qhull's 6-D hull of up to 128 edge
+wrenches takes up to 35 ms) is built only when epsilon or the volume is asked for: the planner ranks and checks grasps
+by force closure and reports the qualities of the one it keeps.
 """
 
 from __future__ import annotations
@@ -90,8 +90,6 @@ def grasp_quality(
     positions: Points, normals_in: Points, center: Vector3, radius: float, mu: float = DEFAULT_MU
 ) -> GraspQuality:
     """The quality of the contacts (see the module docstring), each measure computed on first use."""
-    if len(positions) == 0:
-        return GraspQuality(0, mu=mu)
     return GraspQuality(len(positions), contact_wrenches(positions, normals_in, center, radius, mu), mu=mu)
 
 

@@ -25,6 +25,7 @@ Barrett eigengrasps onto them.
 from __future__ import annotations
 
 import hashlib
+import itertools
 import math
 import os
 import tempfile
@@ -281,38 +282,45 @@ def load_hand(
 # --- numpy kinematics (mirrors the URDF; used by the planner's vectorised energy) ----------------------------
 
 
-def _rot_x(angle: float) -> FloatArray:
-    c, s = math.cos(angle), math.sin(angle)
-    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
-
-
-def _rot_z(angle: float) -> FloatArray:
-    c, s = math.cos(angle), math.sin(angle)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-
-
-def _tf(rot: FloatArray, trans: npt.ArrayLike) -> FloatArray:
-    out = np.eye(4)
-    out[:3, :3] = rot
-    out[:3, 3] = np.asarray(trans, dtype=np.float64)
+def _joint_tf(axis: int, angle: npt.ArrayLike, trans: tuple[float, float, float]) -> FloatArray:
+    """(..., 4, 4) transforms: a rotation by ``angle`` (...,) rad about the x (0) or z (2) axis, then ``trans`` (m)."""
+    theta = np.asarray(angle, dtype=np.float64)
+    c, s = np.cos(theta), np.sin(theta)
+    i, j = (1, 2) if axis == 0 else (0, 1)
+    out = np.zeros((*theta.shape, 4, 4))
+    out[..., axis, axis] = out[..., 3, 3] = 1.0
+    out[..., i, i], out[..., i, j], out[..., j, i], out[..., j, j] = c, -s, s, c
+    out[..., :3, 3] = trans
     return out
 
 
 def link_transforms(joints: npt.ArrayLike) -> FloatArray:
-    """(10, 4, 4) transforms palm-from-link for the palm (index 0) and the 9 URDF links (index i + 1)."""
+    """(..., 10, 4, 4) transforms palm-from-link for the palm (index 0) and the 9 URDF links (index i + 1), for
+    joint angles (..., 9) rad."""
     q = np.asarray(joints, dtype=np.float64)
-    out = np.empty((10, 4, 4))
-    out[0] = np.eye(4)
+    out = np.zeros((*q.shape[:-1], 10, 4, 4))
+    out[..., 0, :, :] = np.eye(4)
     bases = (
-        _tf(_rot_z(-q[0]), (SPREAD_AXIS_X, 0.0, 0.0)),
-        _tf(_rot_z(q[3]), (-SPREAD_AXIS_X, 0.0, 0.0)),
-        _tf(_rot_z(math.pi), (0.0, 0.0, 0.0)),
+        _joint_tf(2, -q[..., 0], (SPREAD_AXIS_X, 0.0, 0.0)),
+        _joint_tf(2, q[..., 3], (-SPREAD_AXIS_X, 0.0, 0.0)),
+        _joint_tf(2, np.full(q.shape[:-1], math.pi), (0.0, 0.0, 0.0)),
     )
     for k, knuckle in enumerate(bases):
-        prox = knuckle @ _tf(_rot_x(q[3 * k + 1] - math.pi / 2), (0.0, KNUCKLE_LENGTH, 0.0))
-        dist = prox @ _tf(_rot_x(q[3 * k + 2]), (0.0, 0.0, PROXIMAL_LENGTH))
-        out[3 * k + 1], out[3 * k + 2], out[3 * k + 3] = knuckle, prox, dist
+        prox = knuckle @ _joint_tf(0, q[..., 3 * k + 1] - math.pi / 2, (0.0, KNUCKLE_LENGTH, 0.0))
+        dist = prox @ _joint_tf(0, q[..., 3 * k + 2], (0.0, 0.0, PROXIMAL_LENGTH))
+        out[..., 3 * k + 1, :, :], out[..., 3 * k + 2, :, :], out[..., 3 * k + 3, :, :] = knuckle, prox, dist
     return out
+
+
+def joints_from_eigengrasps(amplitudes: npt.ArrayLike) -> FloatArray:
+    """(..., 9) URDF joint angles (rad, distal joints coupled) of eigengrasp amplitudes (..., 2) (a1, a2), the DOFs
+    clamped to the joint limits as ``dofs_from_eigengrasps`` clamps them."""
+    a = np.asarray(amplitudes, dtype=np.float64)
+    d = np.clip(EIGENGRASP_ORIGIN + a[..., :1] * EIGENGRASPS[0] + a[..., 1:] * EIGENGRASPS[1], DOF_LOWER, DOF_UPPER)
+    dist = coupled_distal(d[..., 1:])
+    zero = np.zeros(d.shape[:-1])
+    columns = (d[..., 0], d[..., 1], dist[..., 0], d[..., 0], d[..., 2], dist[..., 1], zero, d[..., 3], dist[..., 2])
+    return np.stack(columns, axis=-1)
 
 
 @dataclass(frozen=True)
@@ -325,11 +333,16 @@ class LinkPoints:
     normal: Points
 
     def in_palm(self, transforms: FloatArray) -> tuple[Points, Points]:
-        """Positions and directions (m, 3) in the palm frame for ``link_transforms`` output."""
-        tf = transforms[self.link]
-        pos = np.einsum("mij,mj->mi", tf[:, :3, :3], self.local) + tf[:, :3, 3]
-        nrm = np.einsum("mij,mj->mi", tf[:, :3, :3], self.normal)
-        return pos, nrm
+        """Positions and directions (..., m, 3) in the palm frame for ``link_transforms`` output (..., 10, 4, 4),
+        one link's run of points at a time."""
+        starts = np.concatenate([[0], np.flatnonzero(np.diff(self.link)) + 1, [len(self.link)]])
+        pos, nrm = [], []
+        for a, b in itertools.pairwise(starts):
+            tf = transforms[..., self.link[a], :, :]
+            turn = np.swapaxes(tf[..., :3, :3], -1, -2)
+            pos.append(self.local[a:b] @ turn + tf[..., None, :3, 3])
+            nrm.append(self.normal[a:b] @ turn)
+        return np.concatenate(pos, axis=-2), np.concatenate(nrm, axis=-2)
 
 
 def _virtual_contacts() -> LinkPoints:

@@ -21,7 +21,7 @@ import pybullet as pb
 
 from tasks.arrays import Points
 from tasks.errors import RecordingError, SceneError
-from tasks.grasp.seed import sensor_from_palm
+from tasks.grasp.api import sensor_from_palm
 from tasks.recording.writer import RecordingWriter
 from tasks.scenes.catalog import SCENE_NAMES, build_scene
 from tasks.scenes.kinematics import load_scene, palm_pose_world, truth_chain

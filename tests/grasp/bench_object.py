@@ -11,7 +11,7 @@ from scipy.spatial.transform import Rotation
 from schemas.descriptor import Grasp
 from tasks.arrays import FloatArray
 from tasks.grasp.api import part_near, plan_on_model
-from tasks.grasp.candidate_grasp import grasp_from_candidate
+from tasks.grasp.execution import grasp_from_candidate
 from tasks.grasp.object_model import build_object_model
 from tasks.grasp.shake import shake_test
 from tests.grasp.cases.grasp import Case, hold_program, random_cases, scene_cases

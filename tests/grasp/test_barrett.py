@@ -79,3 +79,14 @@ def test_open_hand_is_flat_and_closing_brings_the_fingers_along_the_approach_axi
     assert all(t[2] > 0.08 for t in upright)  # proximal 70 mm up, distal bent 70° inwards
     assert upright[0][1] < 0.05  # finger 1 (at y = +50 mm) bends towards the thumb
     assert upright[2][1] > -0.05  # the thumb (at y = -50 mm) bends towards fingers 1 and 2
+
+
+def test_batched_kinematics_match_one_hand_at_a_time() -> None:
+    amplitudes = np.array([[-1.13, -1.37], [0.0, 0.0], [2.0, 3.0], [-4.0, 4.0]])
+    joints = barrett.joints_from_eigengrasps(amplitudes)
+    batch = barrett.link_transforms(joints)
+    contacts, _ = barrett.VIRTUAL_CONTACTS.in_palm(batch)
+    for a, q, tfs, points in zip(amplitudes, joints, batch, contacts, strict=True):
+        np.testing.assert_allclose(q, barrett.joint_positions(barrett.dofs_from_eigengrasps(float(a[0]), float(a[1]))))
+        np.testing.assert_allclose(tfs, barrett.link_transforms(q), atol=1e-12)
+        np.testing.assert_allclose(points, barrett.VIRTUAL_CONTACTS.in_palm(barrett.link_transforms(q))[0], atol=1e-12)

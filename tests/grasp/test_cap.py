@@ -1,6 +1,6 @@
-"""The cap a palm looks down on (``cap.py``): the solid the palm meets first as far as its side keeps one radius,
-its neck and body the mount; a box, a can and a lone cylinder have none. On the bottle scene a cap planned as the
-part holds the cap, not the neck below it."""
+"""The cap a palm looks down on (``mount.find_cap``): the solid the palm meets first as far as its side keeps one
+radius, its neck and body the mount; a box, a can and a lone cylinder have none. On the bottle scene a cap planned as
+the part holds the cap, not the neck below it."""
 
 from __future__ import annotations
 
@@ -11,9 +11,9 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from tasks.arrays import Points
-from tasks.grasp.api import planned_on
-from tasks.grasp.cap import find_cap
+from tasks.grasp.mount import find_cap
 from tasks.grasp.object_model import build_object_model
+from tasks.grasp.primitive_fit import within
 from tests.grasp.bench_object import plan_bench_scene
 from tests.grasp.surface_sampling import sample_box_surface, sample_cylinder_surface
 
@@ -50,11 +50,13 @@ def test_cap_on_a_bottle_is_found_with_its_size_and_axis(tilt_deg: float) -> Non
     approach = Rotation.from_euler("x", tilt_deg, degrees=True).apply([0.0, 0.0, -1.0])
     cap = find_cap(points, TOP - 0.08 * approach, approach)
     assert cap is not None
-    assert cap.radius_m == pytest.approx(CAP_RADIUS_M, abs=0.0005)
-    assert cap.height_m == pytest.approx(CAP_HEIGHT_M, abs=0.002)
-    assert math.degrees(math.acos(float(cap.axis @ [0.0, 0.0, -1.0]))) < 1.0
-    assert np.linalg.norm(np.asarray(cap.top) - TOP) < 0.001
-    inside = cap.contains(points, 0.0)
+    assert cap.kind == "cylinder"
+    assert cap.size[0] == pytest.approx(CAP_RADIUS_M, abs=0.0005)
+    assert 2.0 * cap.size[1] == pytest.approx(CAP_HEIGHT_M, abs=0.002)
+    axis = Rotation.from_quat(cap.quat_xyzw).apply([0.0, 0.0, 1.0])
+    assert math.degrees(math.acos(float(axis @ [0.0, 0.0, -1.0]))) < 1.0
+    assert np.linalg.norm(np.asarray(cap.position) - cap.size[1] * axis - TOP) < 0.001
+    inside = within(cap, points, 0.0)
     assert not inside[points[:, 2] < TOP[2] - CAP_HEIGHT_M - 0.004].any()  # nothing of the neck or below
 
 
@@ -79,8 +81,7 @@ def test_bottle_model_is_its_cap_on_a_mount() -> None:
     model = build_object_model(
         points, np.random.default_rng(0), viewpoint=TOP + np.array([0.0, 0.0, 0.08]), approach=down
     )
-    assert model.cap is not None
-    assert planned_on(model) == "cap and convex pieces"
+    assert model.cylinder is not None and model.cylinder.size[0] == pytest.approx(CAP_RADIUS_M, abs=0.0005)
     assert model.mount is not None
     assert len(model.parts) - model.mount_parts == 1
     part = model.points[~model.mount]

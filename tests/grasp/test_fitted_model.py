@@ -8,10 +8,10 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from tasks.grasp.api import plan_grasp
-from tasks.grasp.hold_check import hold_check
 from tasks.grasp.object_model import build_object_model
-from tasks.grasp.primitive_shape import PrimitiveShape
-from tasks.grasp.shake import shake_test
+from tasks.grasp.primitive_fit import PrimitiveShape
+from tasks.grasp.shake import hold_check, shake_test
+from tests.grasp.cases.exact import primitive_model
 from tests.grasp.cases.grasp import handle_on_plate
 from tests.grasp.surface_sampling import sample_box_surface, sample_cylinder_surface
 
@@ -62,9 +62,10 @@ def test_a_grasp_planned_on_a_fitted_cylinder_holds_the_exact_cylinder() -> None
     x, z = np.array([0.0, 0.0, 1.0]), np.array([0.0, 1.0, 0.0])
     palm_rot = Rotation.from_matrix(np.stack([x, np.cross(z, x), z], axis=1))
     palm = CENTRE - np.array([0.0, 0.07, 0.0])
+    model = build_object_model(scan, np.random.default_rng(0), viewpoint=palm, approach=z)
+    assert model.primitive is not None and model.primitive.kind == "cylinder"
     grasp = plan_grasp(scan, palm, palm_rot.as_quat(), np.random.default_rng(0))
-    assert grasp.quality["planned_on"] == "cylinder"
     assert grasp.quality["force_closure"]
     exact = PrimitiveShape("cylinder", (0.03, 0.07, 0.0), (float(CENTRE[0]), float(CENTRE[1]), float(CENTRE[2])))
-    truth = build_object_model(scan, rng, primitive=exact, normals=np.zeros_like(scan))
+    truth = primitive_model(scan, exact)
     assert shake_test(truth, grasp, hold_check(np.asarray(grasp.wrist_orientation))).holds

@@ -9,9 +9,8 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from schemas.descriptor import Grasp
-from tasks.grasp.hold_check import CHECK_LENGTH_S, hold_check
 from tasks.grasp.object_model import build_object_model
-from tasks.grasp.shake import shake_test
+from tasks.grasp.shake import CHECK_LENGTH_S, hold_check, shake_test
 from tests.grasp.surface_sampling import sample_box_surface
 
 from .conftest import PALM_DOWN

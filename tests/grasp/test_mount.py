@@ -9,8 +9,9 @@ from scipy.spatial.transform import Rotation
 from schemas.descriptor import Grasp
 from tasks.arrays import Points
 from tasks.grasp.mount import find_mount
-from tasks.grasp.object_model import ObjectModel, build_object_model, labelled_model
-from tasks.grasp.shake import shake_test
+from tasks.grasp.object_model import ObjectModel, build_object_model
+from tasks.grasp.shake import hold_check, shake_test
+from tests.grasp.cases.exact import labelled_model
 from tests.grasp.surface_sampling import sample_box_surface, sample_cylinder_surface
 
 from .conftest import PALM_DOWN
@@ -73,11 +74,12 @@ def test_fingers_stopped_by_the_mount_do_not_hold_the_part() -> None:
     box, walls = _box(rng), _walls(rng)
     view = CENTRE + np.array([0.0, 0.0, 0.2])
     away = walls + np.array([0.3, 0.0, 0.0])
-    alone = shake_test(labelled_model(box, away, rng, viewpoint=view), grasp)
+    program = hold_check(PALM_DOWN)
+    alone = shake_test(labelled_model(box, away, rng, viewpoint=view), grasp, program)
     assert alone.holds  # the mount out of the fingers' way: the wrap holds the box
-    mounted = shake_test(labelled_model(box, walls, rng, viewpoint=view), grasp)
+    mounted = shake_test(labelled_model(box, walls, rng, viewpoint=view), grasp, program)
     assert not mounted.holds  # the fingers close on the walls: the box, a free body, falls
-    as_one = shake_test(build_object_model(np.concatenate([box, walls]), rng, viewpoint=view), grasp)
+    as_one = shake_test(build_object_model(np.concatenate([box, walls]), rng, viewpoint=view), grasp, program)
     assert as_one.holds  # box and walls one body: pinching the walls carries the box
 
 

@@ -11,32 +11,35 @@ from scipy.spatial.transform import Rotation
 
 from tasks.arrays import Points
 from tasks.grasp.api import plan_grasp, plan_on_model
-from tasks.grasp.candidate_grasp import grasp_from_candidate
-from tasks.grasp.generators import GENERATORS
-from tasks.grasp.hold_check import hold_check
-from tasks.grasp.object_model import build_object_model, labelled_model
+from tasks.grasp.execution import grasp_from_candidate
+from tasks.grasp.object_model import build_object_model
 from tasks.grasp.planner import (
+    ACCEPT_C,
+    ACCEPT_D,
+    GENERATORS,
     ILLEGAL_ENERGY,
+    NEIGHBOUR_C,
+    NEIGHBOUR_D,
     BestList,
     PlannerParams,
-    Schedule,
     anneal,
     contact_energy,
     ingber_from_uniforms,
     search_space,
     state_energy,
+    temperature,
 )
-from tasks.grasp.shake import shake_test
+from tasks.grasp.shake import hold_check, shake_test
 from tasks.hand import barrett
+from tests.grasp.cases.exact import labelled_model
 from tests.grasp.cases.grasp import PLATE_POINTS, handle_on_plate
 
 from .conftest import HANDLE_CENTER, PALM_DOWN
 
 
 def test_graspit_online_schedule() -> None:
-    s = Schedule()
-    assert s.neighbour_temperature(100) == pytest.approx(10.0 * math.exp(-0.24 * 10.0))
-    assert s.accept_temperature(1000) == pytest.approx(10.0 * math.exp(-0.54 * 10.0))
+    assert temperature(100, NEIGHBOUR_C, NEIGHBOUR_D) == pytest.approx(10.0 * math.exp(-0.24 * 10.0))
+    assert temperature(1000, ACCEPT_C, ACCEPT_D) == pytest.approx(10.0 * math.exp(-0.54 * 10.0))
     draws = ingber_from_uniforms(0.05, np.random.default_rng(0).random(10000))
     assert np.all(np.abs(draws) < 1.0)
     # |y| = T((1 + 1/T)^v - 1) with v uniform: the median is at v = 1/2; cold draws are small with a heavy tail
@@ -46,11 +49,12 @@ def test_graspit_online_schedule() -> None:
 
 def test_contact_energy_is_low_on_contact_and_illegal_inside(handle_points: tuple[Points, Points]) -> None:
     model = build_object_model(handle_points[0], np.random.default_rng(0))
-    rot = Rotation.from_quat(PALM_DOWN).as_matrix()
-    dofs = barrett.dofs_from_eigengrasps(-1.13, -1.37)
-    touching = contact_energy(model, rot, HANDLE_CENTER + np.array([0, 0, 0.021]), dofs)
-    far = contact_energy(model, rot, HANDLE_CENTER + np.array([0, 0, 0.2]), dofs)
-    inside = contact_energy(model, rot, HANDLE_CENTER + np.array([0, 0, 0.0]), dofs)
+    rot = Rotation.from_quat(PALM_DOWN).as_matrix()[None]
+    joints = barrett.joints_from_eigengrasps(np.array([[-1.13, -1.37]]))
+    touching, far, inside = (
+        float(contact_energy(model, rot, (HANDLE_CENTER + np.array([0, 0, dz]))[None], joints)[0])
+        for dz in (0.021, 0.2, 0.0)
+    )
     assert touching < far
     assert inside == ILLEGAL_ENERGY
 
@@ -70,12 +74,12 @@ def test_annealing_keeps_the_best_unique_states(handle_points: tuple[Points, Poi
     seed_rot = Rotation.from_quat(PALM_DOWN).as_matrix()
     space = search_space(model, seed_rot, HANDLE_CENTER + np.array([0, 0, 0.06]), PlannerParams())
     best = BestList(6, space.upper - space.lower)
-    start = np.array([0.0, -1.0, space.pivot_m, 0.0, 0.0, 0.0, 0.0, 0.0])
-    anneal(lambda x: state_energy(model, space, x), start, space, np.random.default_rng(0), 200, best)
+    starts = np.array([[0.0, -1.0, space.pivot_m, 0.0, 0.0, 0.0, 0.0, 0.0], [2.0, -1.0, 0.1, 0.0, 0.0, 0.0, 0.0, 0.0]])
+    anneal(lambda x: state_energy(model, space, x), starts, space, np.random.default_rng(0), 200, best)
     energies = [e for e, _ in best.states]
     assert len(energies) == 6
     assert energies == sorted(energies)
-    assert energies[0] < state_energy(model, space, start)
+    assert energies[0] < float(np.min(state_energy(model, space, starts)))
     for i, (_, a) in enumerate(best.states):
         for _, b in best.states[i + 1 :]:
             assert np.any(np.abs(a - b) >= 0.1 * (space.upper - space.lower))

@@ -9,10 +9,9 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from tasks.grasp.api import part_near, plan_on_model
-from tasks.grasp.candidate_grasp import grasp_from_candidate
+from tasks.grasp.api import part_near, plan_on_model, stillest_time_ns
+from tasks.grasp.execution import grasp_from_candidate
 from tasks.grasp.object_model import build_object_model
-from tasks.grasp.seed import stillest_time_ns
 from tasks.hand import barrett
 from tasks.recording.load import PoseTrack
 from tasks.scenes.catalog import build_scene

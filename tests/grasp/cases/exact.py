@@ -11,16 +11,34 @@ import math
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from tasks.arrays import Points
-from tasks.grasp.object_model import ObjectModel
+from tasks.arrays import Points, Vector3
+from tasks.grasp.object_model import ObjectModel, estimate_normals, mounted_model, voxel_downsample
 from tasks.grasp.part_cylinders import prism_vertices
-from tasks.grasp.primitive_shape import PrimitiveShape
+from tasks.grasp.primitive_fit import PrimitiveShape
 from tasks.scenes.surface import WorldShape, sample_shapes
 
 SPHERE_VERTICES = 400
 """Vertices (a Fibonacci lattice) of the hull standing for a sphere."""
 SURFACE_POINTS = 3000
 """Surface points of the part sampled for the model's centre and radius (the pieces are exact)."""
+
+
+def primitive_model(points: Points, shape: PrimitiveShape) -> ObjectModel:
+    """The exact box or cylinder ``shape`` as a hold test's model; its surface ``points`` (n, 3) world m give the
+    centre and radius."""
+    center = points.mean(axis=0)
+    radius = float(np.linalg.norm(points - center, axis=1).max())
+    return ObjectModel(points, np.zeros_like(points), center, radius, (), shape)
+
+
+def labelled_model(part: Points, mount: Points, rng: np.random.Generator, *, viewpoint: Vector3) -> ObjectModel:
+    """A model whose mount is known (a test object's sampled shapes): ``part`` and ``mount`` (n, 3) world m, each
+    downsampled to 4 mm as the planner's model is, normals of the whole oriented away from ``viewpoint``, each cut
+    into its own convex pieces (the part's first); centre and radius are the part's."""
+    grip, face = voxel_downsample(part, 0.004), voxel_downsample(mount, 0.004)
+    pts = np.concatenate([grip, face])
+    is_mount = np.arange(len(pts)) >= len(grip)
+    return mounted_model(pts, estimate_normals(pts, viewpoint=viewpoint), is_mount, rng, fit=False)
 
 
 def hull_vertices(shape: WorldShape) -> Points:

@@ -13,10 +13,10 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from tasks.arrays import Points
-from tasks.grasp.object_model import ObjectModel, build_object_model
-from tasks.grasp.primitive_shape import PrimitiveShape
+from tasks.grasp.object_model import ObjectModel
+from tasks.grasp.primitive_fit import PrimitiveShape
 from tasks.scenes.surface import WorldShape, sample_shapes
-from tests.grasp.cases.exact import exact_model
+from tests.grasp.cases.exact import exact_model, primitive_model
 from tests.grasp.cases.grasp import Case, palm_seed
 
 CENTRE = np.array([0.5, 0.0, 0.5])
@@ -161,7 +161,7 @@ def _primitive_case(family: str, rng: np.random.Generator, gap: float) -> Case:
 
     def truth(rng: np.random.Generator) -> ObjectModel:
         del rng
-        return build_object_model(pts, np.random.default_rng(0), primitive=shape, normals=np.zeros_like(pts))
+        return primitive_model(pts, shape)
 
     return Case(name, pts, pos, quat, truth)
 

@@ -15,12 +15,12 @@ from scipy.spatial.transform import Rotation
 
 from tasks.arrays import Points
 from tasks.grasp.api import part_near
-from tasks.grasp.object_model import ObjectModel, build_object_model, labelled_model
-from tasks.grasp.primitive_shape import PrimitiveShape
+from tasks.grasp.object_model import ObjectModel, build_object_model
+from tasks.grasp.primitive_fit import PrimitiveShape
 from tasks.grasp.shake import Motion, ShakeParams
 from tasks.scenes.scene import Scene
 from tasks.scenes.surface import WorldShape, model_shapes, sample_shapes
-from tests.grasp.cases.exact import distance_to, exact_model, handle_shapes
+from tests.grasp.cases.exact import distance_to, exact_model, handle_shapes, labelled_model, primitive_model
 from tests.grasp.surface_sampling import sample_box_surface, sample_cylinder_surface
 
 Resample = Callable[[np.random.Generator], ObjectModel]
@@ -243,7 +243,7 @@ def _primitive(shape: PrimitiveShape, points: Points) -> Resample:
 
     def make(rng: np.random.Generator) -> ObjectModel:
         del rng
-        return build_object_model(points, np.random.default_rng(0), primitive=shape, normals=np.zeros_like(points))
+        return primitive_model(points, shape)
 
     return make
 
