@@ -114,7 +114,16 @@ def fit_axis(
     region, normals = source[mask], source_normals[mask]
     fitted = whole
     for dist in (2.0 * threshold_m, threshold_m):
-        fitted = stretch_icp(region, target, target_normals, fitted, dist, source_normals=normals, free_stretch=False)
+        fitted = stretch_icp(
+            region,
+            target,
+            target_normals,
+            fitted,
+            dist,
+            source_normals=normals,
+            free_stretch=False,
+            final_m=threshold_m,
+        )
     spread = line_spread(
         fitted,
         region,

@@ -41,10 +41,11 @@ CORRELATED_POINTS = 4.0
 its nearest neighbours err together): the residuals count as one independent observation per 2 x 2 pairs."""
 NEAREST_SLACK = 0.25
 NEAREST_K = 8
-"""A pair counts only when its source point's plane is, within this fraction of the correspondence distance, the
-nearest of the planes of the ``NEAREST_K`` source points nearest its target point: the back face of a thin part
-(a door leaf, a drawer front) faces the same way, unsigned, as the front one the scan shows, and would pull it
-in."""
+"""A pair counts only when its source point's plane is, within this fraction of the final correspondence distance,
+the nearest of the planes of the ``NEAREST_K`` source points nearest its target point: the back face of a thin
+part (a door leaf, a drawer front) faces the same way, unsigned, as the front one the scan shows, and would pull
+it in. The slack is the final distance's even while the early, wider stages search (a fraction of 4 times it
+exceeds a 30-40 mm leaf's thickness, and a leaf's back face paired with its front squeezes the leaf flat)."""
 POINT_WEIGHT = 0.3
 """Weight of the point-to-point components beside the point-to-plane residual."""
 RIDGE = 1e-2
@@ -195,10 +196,18 @@ def carried_normals(current: Stretched, source_normals: Points) -> Points:
 
 
 def _matched(
-    current: Stretched, source: Points, source_normals: Points, *, target_normals: Points, tree: cKDTree, dist_m: float
+    current: Stretched,
+    source: Points,
+    source_normals: Points,
+    *,
+    target_normals: Points,
+    tree: cKDTree,
+    dist_m: float,
+    slack_m: float,
 ) -> tuple[Points, Points, np.ndarray, np.ndarray]:
     """The moved source and its carried normals, the indices of the target points paired with them, and which
-    pairs count (within ``dist_m``, normals agreeing within ``NORMAL_COS``, nearest surface: ``NEAREST_SLACK``)."""
+    pairs count (within ``dist_m``, normals agreeing within ``NORMAL_COS``, the nearest surface within
+    ``slack_m``: ``NEAREST_SLACK``)."""
     moved = current.apply_points(source)
     dist, idx = tree.query(moved, distance_upper_bound=dist_m)
     ok = np.isfinite(dist)
@@ -212,7 +221,7 @@ def _matched(
     near = near.reshape(len(q), -1)
     gap = np.abs(np.einsum("ikj,ikj->ik", turned[near], q[:, None, :] - moved[near]))  # to each neighbour's plane
     own = np.abs(np.einsum("ij,ij->i", turned[ok], q - moved[ok]))
-    ok[ok] &= own <= gap.min(axis=1) + NEAREST_SLACK * dist_m
+    ok[ok] &= own <= gap.min(axis=1) + slack_m
     return moved, turned, idx, ok
 
 
@@ -226,20 +235,30 @@ def stretch_icp(
     source_normals: Points,
     iterations: int = 30,
     free_stretch: bool = True,
+    final_m: float | None = None,
 ) -> Stretched:
     """Refine ``start`` by point-to-plane ICP over rotation, translation and (``free_stretch``) the three
-    stretch factors; source (n, 3) and target (m, 3) metres, ``source_normals`` (n, 3) and ``target_normals``
-    (m, 3) unit (unsigned). The residuals lie along the carried source normals; pairs whose normals disagree
-    are left out: a face the scan missed would pull the model's edges in. ``start`` when too few pairs match."""
+        stretch factors; source (n, 3) and target (m, 3) metres, ``source_normals`` (n, 3) and ``target_normals``
+        (m, 3) unit (unsigned). The residuals lie along the carried source normals; pairs whose normals disagree
+        are left out: a face the scan missed would pull the model's edges in. ``final_m``: the last stage's
+    correspondence distance, which sets the nearest-surface slack (``NEAREST_SLACK``; default ``max_distance_m``).
+    ``start`` when too few pairs match."""
     tree = cKDTree(target)
     current = start
     huber = max_distance_m / 3.0
     limit = math.log(MAX_STRETCH)
     along = (source - start.centre) @ start.axes  # (n, 3): coordinates along the box axes
     unknowns = 9 if free_stretch else 6
+    slack = NEAREST_SLACK * (max_distance_m if final_m is None else final_m)
     for _ in range(iterations):
         moved, turned, idx, ok = _matched(
-            current, source, source_normals, target_normals=target_normals, tree=tree, dist_m=max_distance_m
+            current,
+            source,
+            source_normals,
+            target_normals=target_normals,
+            tree=tree,
+            dist_m=max_distance_m,
+            slack_m=slack,
         )
         if int(ok.sum()) < 12:
             return current
@@ -297,7 +316,13 @@ def line_spread(
     hinge on a face the scan lacks) keeps the prior's sigma, not none."""
     tree = cKDTree(target)
     moved, turned, idx, ok = _matched(
-        fitted, source, source_normals, target_normals=target_normals, tree=tree, dist_m=dist_m
+        fitted,
+        source,
+        source_normals,
+        target_normals=target_normals,
+        tree=tree,
+        dist_m=dist_m,
+        slack_m=NEAREST_SLACK * dist_m,
     )
     unknowns = 9 if free_stretch else 6
     if int(ok.sum()) < 12:
@@ -370,5 +395,7 @@ def fit_stretch(
     shrinks from 4 to 1 ``threshold_m``)."""
     current = Stretched(best, axes, np.ones(3), centre)
     for dist in (4.0 * threshold_m, 2.0 * threshold_m, threshold_m):
-        current = stretch_icp(sample[0], target, target_normals, current, dist, source_normals=sample[1])
+        current = stretch_icp(
+            sample[0], target, target_normals, current, dist, source_normals=sample[1], final_m=threshold_m
+        )
     return current
