@@ -96,22 +96,20 @@ def segment_recording(rec: RecordingData, params: LearnParams, rng: np.random.Ge
 
 
 def fit_segments(rec: RecordingData, spans: list[tuple[float, float]], params: LearnParams) -> LearnResult:
-    """Classify and fit each span (s) of the recording; the chain M (time order) with extents C."""
+    """Classify and fit each span (s) of the recording; the chain M (time order) with extents C.
+
+    The hand is looked for by its motion twice: over the change points' spans, and over the segments once their
+    boundaries are at the part's rests, since a coarse segmentation may join a part's stop and the hand's
+    withdrawal in one span (the withdrawal is then not seen alone); a hand found only then is fitted again."""
     prep = prepare(rec, params.sigma_floor_m, params.hand_pattern)
     if params.classifier == "bic" and (found := hand_by_motion(prep, spans, params) - prep.hand):
         prep = replace(prep, hand=prep.hand | found)
-    fits = [fit_span(prep, a, b, params) for a, b in spans]
-    if all(f.kind == "still" for f in fits):
-        names = bounded([tr.name for tr in prep.tracks])
-        msg = f"every marker is still ({names}): no motion to learn"
-        raise FitError(msg, None, (spans[0][0], spans[-1][1]))
+    fits = _fitted(prep, spans, params)
     if params.classifier == "bic":
-        fits = merge_adjacent(prep, fits, params)
-        fits = split_reversals(prep, fits, params)
-        fits = trim_to_motion(prep, fits)
-        fits = refine_boundaries(prep, fits, params)  # first: the rests then hold no slow start or stop of the motion
-        fits = refine_extents(prep, fits)
-        fits = drop_small(fits, params.min_motion_m)
+        rested = [(f.t_start, f.t_end) for f in fits]
+        if found := hand_by_motion(prep, rested, params) - prep.hand:
+            prep = replace(prep, hand=prep.hand | found)
+            fits = _fitted(prep, spans, params)
     chain = tuple(_primitive(f) for f in fits if f.kind in ("rotation", "translation"))
     warnings = list(prep.warnings)
     for f in fits:
@@ -120,6 +118,25 @@ def fit_segments(rec: RecordingData, spans: list[tuple[float, float]], params: L
                 f"t={f.t_start:.3f}..{f.t_end:.3f} s: undefined motion dropped ({f.note or 'no model fits'})"
             )
     return LearnResult(tuple(fits), chain, tuple(warnings))
+
+
+def _fitted(prep: PreparedRecording, spans: list[tuple[float, float]], params: LearnParams) -> list[SegmentFit]:
+    """Each span classified and fitted, then (BIC classifier) merged, split at reversals, trimmed to the motion,
+    its boundaries moved to the rests, its extents measured between them and too small motions dropped."""
+    fits = [fit_span(prep, a, b, params) for a, b in spans]
+    if all(f.kind == "still" for f in fits):
+        names = bounded([tr.name for tr in prep.tracks])
+        msg = f"every marker is still ({names}): no motion to learn"
+        raise FitError(msg, None, (spans[0][0], spans[-1][1]))
+    if params.classifier == "bic":
+        fits = merge_adjacent(prep, fits, params)
+        fits = split_reversals(prep, fits, params)
+        fits = merge_adjacent(prep, fits, params)  # a reversal inside a span leaves its second leg in two pieces
+        fits = trim_to_motion(prep, fits)
+        fits = refine_boundaries(prep, fits, params)  # first: the rests then hold no slow start or stop of the motion
+        fits = refine_extents(prep, fits)
+        fits = drop_small(prep, fits, params.min_motion_m)
+    return fits
 
 
 def learn_chain(rec: RecordingData, params: LearnParams, rng: np.random.Generator) -> LearnResult:

@@ -78,13 +78,21 @@ def marker_kind(track: Track, t0: float, t1: float, undefined: float) -> Kind | 
 
 
 def rigid_with(track: Track, ref: Track, t0: float, t1: float, tol: float) -> bool:
-    """Whether ``track`` keeps its distance to ``ref`` over [t0, t1) (s) within ``tol`` (std, m)."""
+    """Whether ``track`` keeps its distance to ``ref`` over [t0, t1) (s) within ``tol`` (std, m). A distance's
+    spread needs the few samples a model does (``MIN_MODEL_SAMPLES``), not the more a marker's fit needs: a
+    hand riding a drawer for 0.6 s is 7 samples at 11 Hz."""
     t, p = _samples(track, t0, t1)
     tr, pr = _samples(ref, t0, t1)
-    if len(t) < MIN_SAMPLES or len(tr) < 2:
+    if len(t) < MIN_MODEL_SAMPLES or len(tr) < 2:
         return False
-    ref_at = np.column_stack([np.interp(t, tr, pr[:, i]) for i in range(3)])
-    return float(np.std(np.linalg.norm(p - ref_at, axis=1))) < tol
+    return float(np.std(distances_to(t, p, tr, pr))) < tol
+
+
+def distances_to(t_s: FloatArray, pts: Points, ref_t_s: FloatArray, ref_pts: Points) -> FloatArray:
+    """Distances (m) of samples at times ``t_s`` (s) to a reference marker interpolated linearly at those times."""
+    ref_at = np.column_stack([np.interp(t_s, ref_t_s, ref_pts[:, i]) for i in range(3)])
+    out: FloatArray = np.linalg.norm(pts - ref_at, axis=1)
+    return out
 
 
 def fit_span(
@@ -307,8 +315,10 @@ def merge_adjacent(prep: PreparedRecording, fits: list[SegmentFit], params: Lear
         changed = False
         moving = [i for i, f in enumerate(out) if f.kind in ("rotation", "translation")]
         for i, j in itertools.pairwise(moving):
-            if any(out[k].kind in ("rotation", "translation") for k in range(i + 1, j)) or not same_joint(
-                prep, out[i], out[j]
+            if (
+                any(out[k].kind in ("rotation", "translation") for k in range(i + 1, j))
+                or not same_joint(prep, out[i], out[j])
+                or _legs_of_one_reversal(out[i], out[j])
             ):
                 continue
             union = fit_span(prep, out[i].t_start, out[j].t_end, params)
@@ -324,6 +334,20 @@ def merge_adjacent(prep: PreparedRecording, fits: list[SegmentFit], params: Lear
                 changed = True
                 break
     return out
+
+
+def _legs_of_one_reversal(a: SegmentFit, b: SegmentFit) -> bool:
+    """Whether ``a`` and ``b`` are two legs of one motion split at its reversal (``tasks.learn.reversals``): one fit,
+    its direction turned; they go opposite ways and are never one motion, so no union is fitted for them."""
+    if a.kind != b.kind:
+        return False
+    if a.rotation is not None and b.rotation is not None and a.kind == "rotation":
+        fa, fb = a.rotation, b.rotation
+        return bool(np.array_equal(fa.pos, fb.pos) and np.allclose(fa.dir, -fb.dir))
+    if a.translation is not None and b.translation is not None and a.kind == "translation":
+        ta, tb = a.translation, b.translation
+        return bool(np.array_equal(ta.centroid, tb.centroid) and np.allclose(ta.dir, -tb.dir))
+    return False
 
 
 def rest_window(name: str, fits: list[SegmentFit], i: int, step: int) -> tuple[float, float] | None:
@@ -505,14 +529,24 @@ def motion_m(f: SegmentFit) -> float:
     return f.extent if f.kind == "translation" else 0.0
 
 
-def drop_small(fits: list[SegmentFit], min_motion_m: float) -> list[SegmentFit]:
-    """Primitives that move the part less than ``min_motion_m`` become undefined (wiggles before a grasp)."""
-    return [
-        replace(f, kind="undefined", note=f"moves {motion_m(f) * 1000:.1f} mm < {min_motion_m * 1000:.1f} mm")
-        if f.kind in ("rotation", "translation") and motion_m(f) < min_motion_m
-        else f
-        for f in fits
-    ]
+def drop_small(prep: PreparedRecording, fits: list[SegmentFit], min_motion_m: float) -> list[SegmentFit]:
+    """Primitives that move the part less than ``min_motion_m`` (wiggles before a grasp), or that no marker of
+    theirs samples ``MIN_MODEL_SAMPLES`` times (a circle passes through any three points: a few samples of coloured
+    noise cut at their turning points support no motion model), become undefined."""
+    by_name = {tr.name: tr for tr in prep.tracks}
+    return [_small(f, min_motion_m, by_name) for f in fits]
+
+
+def _small(f: SegmentFit, min_motion_m: float, tracks: dict[str, Track]) -> SegmentFit:
+    if f.kind not in ("rotation", "translation"):
+        return f
+    if motion_m(f) < min_motion_m:
+        return replace(f, kind="undefined", note=f"moves {motion_m(f) * 1000:.1f} mm < {min_motion_m * 1000:.1f} mm")
+    spans = [span_indices(tracks[n], f.t_start, f.t_end) for n in f.markers if n in tracks]
+    samples = max((j - i for i, j in spans), default=0)
+    if samples < MIN_MODEL_SAMPLES:
+        return replace(f, kind="undefined", note=f"{samples} samples < {MIN_MODEL_SAMPLES}")
+    return f
 
 
 def primitive_fit_json(f: SegmentFit) -> dict[str, Any]:

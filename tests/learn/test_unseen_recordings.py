@@ -13,9 +13,11 @@ from scipy.spatial.transform import Rotation
 
 from flows.cli import main as pbd
 from tasks.fit.geometry import angle_between_axes
+from tasks.fit.rotation import fit_rotation
 from tasks.learn.api import fit_segments, learn_chain
+from tasks.learn.chain import SegmentFit, drop_small
 from tasks.learn.params import LearnParams
-from tasks.learn.prepare import isolated_jumps
+from tasks.learn.prepare import isolated_jumps, prepare
 from tasks.recording.load import MarkerTrack, PoseTrack, RecordingData
 from tasks.recording.writer import RecordingWriter
 from tests.conftest import REAL
@@ -39,6 +41,27 @@ def _door_point(angle: np.ndarray, radius: float, height: float = 0.0) -> np.nda
     return HINGE + np.column_stack([radius * np.cos(angle), radius * np.sin(angle), np.full_like(angle, height)])
 
 
+def _hand_path(
+    t: np.ndarray,
+    handle: np.ndarray,
+    *,
+    start: np.ndarray,
+    reach_s: tuple[float, float],
+    reach_bow: np.ndarray,
+    withdraw_s: tuple[float, float],
+    away: np.ndarray,
+    away_bow: np.ndarray | None = None,
+) -> np.ndarray:
+    """A hand (m, world) that reaches from ``start`` to the handle along a bowed curve over ``reach_s`` (s), rides on
+    the handle's path, and withdraws by ``away`` (bowed by ``away_bow``) over ``withdraw_s``."""
+    u = _ease((t - reach_s[0]) / (reach_s[1] - reach_s[0]))[:, None]
+    reach = start + u * (handle[0] - start) + np.sin(np.pi * u) * reach_bow
+    hand = np.where(t[:, None] < reach_s[1], reach, handle)
+    w = _ease((t - withdraw_s[0]) / (withdraw_s[1] - withdraw_s[0]))[:, None]
+    bow = np.zeros(3) if away_bow is None else away_bow
+    return np.where(t[:, None] >= withdraw_s[0], handle[-1] + w * away + np.sin(np.pi * w) * bow, hand)
+
+
 def _reach_ride_withdraw(hz: float, rng: np.random.Generator) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """Two door markers and an unnamed hand marker: the hand reaches along a curve while the door rests (0-2 s),
     rides 3 cm off the handle while the door turns 1 rad (2.5-4.5 s) and withdraws along another curve (5-6.5 s)."""
@@ -47,12 +70,16 @@ def _reach_ride_withdraw(hz: float, rng: np.random.Generator) -> dict[str, tuple
     door = {"marker_0": _door_point(angle, 0.6), "marker_1": _door_point(angle, 0.45, 0.2)}
     handle = _door_point(angle, 0.6) + np.array([0.0, 0.0, 0.03])
     start = handle[0] + np.array([-0.4, -0.3, -0.2])
-    u = _ease(t / 2.0)[:, None]
-    bow = np.sin(np.pi * u) * np.array([0.0, 0.12, 0.1])
-    hand = np.where(t[:, None] < 2.0, start + u * (handle[0] - start) + bow, handle)
-    w = _ease((t - 5.0) / 1.5)[:, None]
-    away = handle[-1] + w * np.array([-0.3, 0.4, 0.1]) + np.sin(np.pi * w) * np.array([0.1, 0.0, 0.1])
-    hand = np.where(t[:, None] >= 5.0, away, hand)
+    hand = _hand_path(
+        t,
+        handle,
+        start=start,
+        reach_s=(0.0, 2.0),
+        reach_bow=np.array([0.0, 0.12, 0.1]),
+        withdraw_s=(5.0, 6.5),
+        away=np.array([-0.3, 0.4, 0.1]),
+        away_bow=np.array([0.1, 0.0, 0.1]),
+    )
     markers = {**door, "marker_2": hand}
     return {n: (t, p + rng.normal(0.0, 0.0005, p.shape)) for n, p in markers.items()}
 
@@ -304,3 +331,106 @@ def test_a_short_lever_arc_under_low_noise_is_a_rotation_not_a_line(noise_m: flo
     assert abs(prim.extent - 0.47) < 0.03
     off = angle_between_axes(np.array(prim.dir), np.array([0.0, 1.0, 0.0]), signed=False)
     assert off < 3.0 * prim.fit["dir_std_rad"] < np.radians(10.0)
+
+
+@pytest.mark.parametrize("hz", [10.0, 12.0])
+def test_an_unnamed_hand_that_withdraws_soon_after_a_drawer_stops_is_dropped(hz: float) -> None:
+    """A drawer (a tracked rigid body, 2 mm noise) slides 0.27 m from 3.0 to 3.8 s; two unnamed hand markers reach
+    for its handle along a curve, ride with it (7-8 samples), and withdraw from 4.2 s. At 10-12 Hz the change points
+    may join the drawer's stop and the withdrawal in one span; the part's rests between them show the hand alone."""
+    t = np.arange(0.0, 6.0, 1.0 / hz)
+    slide = 0.27 * _ease((t - 3.0) / 0.8)
+    body = HINGE + np.column_stack([np.zeros_like(t), -slide, np.zeros_like(t)])
+    handle = body + np.array([0.0, -0.05, 0.04])
+    start = handle[0] + np.array([-0.35, -0.2, -0.25])
+    hand = _hand_path(
+        t,
+        handle,
+        start=start,
+        reach_s=(0.8, 2.6),
+        reach_bow=np.array([0.0, 0.1, 0.12]),
+        withdraw_s=(4.2, 5.0),
+        away=np.array([-0.3, -0.1, 0.2]),
+    )
+    rng = RNG(1)
+    markers = {
+        "marker_24": (t, hand + rng.normal(0.0, 0.002, hand.shape)),
+        "marker_18": (t, hand + np.array([0.02, 0.0, 0.01]) + rng.normal(0.0, 0.002, hand.shape)),
+    }
+    quat = np.tile([0.0, 0.0, 0.0, 1.0], (len(t), 1))
+    pose = PoseTrack("RigidBody1", "markers", _stamps(t), body + rng.normal(0.0, 0.002, body.shape), quat)
+    (prim,) = learn_chain(_recording(markers, {"RigidBody1": pose}), LearnParams(), RNG(0)).chain
+    assert prim.kind == "translation"
+    assert abs(prim.extent - 0.27) < 0.02
+
+
+@pytest.mark.parametrize("hz", [30.0, 144.0])
+def test_a_hand_withdrawing_right_after_a_noisy_door_closes_is_dropped(hz: float) -> None:
+    """A door (a rigid body tracked with 15 mm of camera noise) swings open 1 rad and shut again; an unnamed hand
+    marker (as noisy) reaches for its handle, rides both swings, and withdraws 23 cm from 0.3 s after the door
+    shuts. Under that noise the door's last swing and the withdrawal may share one span; the hand is still told
+    by its own motion."""
+    t = np.arange(0.0, 8.0, 1.0 / hz)
+    angle = 1.0 * _ease((t - 1.5) / 2.0) - 1.0 * _ease((t - 4.0) / 2.0)
+    door = _door_point(angle, 0.55)
+    handle = _door_point(angle, 0.55) + np.array([0.0, 0.0, 0.04])
+    start = handle[0] + np.array([-0.4, -0.3, -0.2])
+    hand = _hand_path(
+        t,
+        handle,
+        start=start,
+        reach_s=(0.2, 1.3),
+        reach_bow=np.array([0.0, 0.12, 0.1]),
+        withdraw_s=(6.3, 7.5),
+        away=np.array([-0.1, -0.2, 0.05]),
+    )
+    rng = RNG(4)
+    quats = Rotation.from_rotvec(np.outer(angle, [0.0, 0.0, 1.0])).as_quat()
+    pose = PoseTrack("Body 3", "markers", _stamps(t), door + rng.normal(0.0, 0.015, door.shape), quats)
+    markers = {"rb3/m23": (t, hand + rng.normal(0.0, 0.015, hand.shape))}
+    chain = learn_chain(_recording(markers, {"Body 3": pose}), LearnParams(), RNG(0)).chain
+    assert [p.kind for p in chain] == ["rotation", "rotation"]
+    assert all(abs(p.extent - 1.0) < 0.1 for p in chain)
+
+
+def test_a_primitive_on_fewer_samples_than_a_model_needs_is_undefined() -> None:
+    """Three samples of arc (0.13 s at 15 Hz), however far they swing, support no motion model (a circle passes
+    through any three points): the primitive becomes undefined with a note; the same arc over 1 s stays."""
+    t = np.arange(0.0, 3.0, 1.0 / 15.0)
+    angle = np.clip((t - 1.0) * 0.4, 0.0, 0.4)
+    rec = _recording({"a": (t, _door_point(angle, 0.3)), "b": (t, _door_point(angle, 0.2, 0.1))})
+    prep = prepare(rec, LearnParams().sigma_floor_m, LearnParams().hand_pattern)
+    rf = fit_rotation([_door_point(np.linspace(0.0, 0.4, 3), 0.3)], 0.002)
+    for duration, kind in ((0.13, "undefined"), (1.0, "rotation")):
+        f = SegmentFit("rotation", 1.0, 1.0 + duration, ("a", "b"), rotation=rf, extent=0.4)
+        (out,) = drop_small(prep, [f], 0.015)
+        assert out.kind == kind
+        assert (kind == "undefined") == out.note.endswith("samples < 4")
+
+
+@pytest.mark.parametrize("hz", [20.0, 120.0])
+def test_an_unnamed_hand_occluded_at_the_end_of_its_withdrawal_is_dropped(hz: float) -> None:
+    """The unnamed hand of ``_reach_ride_withdraw`` is lost to the cameras for the last 0.6 s of the recording,
+    while it withdraws: the distance it gained from the door before it was lost shows the withdrawal."""
+    markers = _reach_ride_withdraw(hz, RNG(3))
+    t, hand = markers["marker_2"]
+    seen = t < 6.4
+    markers["marker_2"] = (t[seen], hand[seen])
+    (prim,) = learn_chain(_recording(markers), LearnParams(), RNG(0)).chain
+    assert prim.kind == "rotation"
+    assert abs(prim.extent - 1.0) < 0.05
+
+
+def test_a_cap_twisted_open_and_back_in_spans_cut_mid_return_is_two_rotations() -> None:
+    """One marker 29 mm from a cap's axis (0.3 mm noise, 160 Hz) turns 2.4 rad open and at once 2.25 rad back.
+    Given spans that cut the return in two (the first span holds the opening and half the return), the halves of
+    the return are one rotation once the reversal is split: two rotations of opposite sense, each its own extent."""
+    t = np.arange(0.0, 2.4, 1.0 / 160.0)
+    angle = 2.4 * _ease((t - 0.3) / 0.8) - 2.25 * _ease((t - 1.13) / 0.8)
+    cap = HINGE + 0.029 * np.column_stack([np.cos(angle), np.sin(angle), np.zeros_like(t)])
+    rec = _recording({"marker_4": (t, cap + RNG(2).normal(0.0, 0.0003, cap.shape))})
+    result = fit_segments(rec, [(0.0, 0.45), (0.45, 1.5), (1.5, 2.4 + 1e-9)], LearnParams())
+    opening, closing = result.chain
+    assert opening.kind == closing.kind == "rotation"
+    assert abs(opening.extent - 2.4) < 0.1 and abs(closing.extent - 2.25) < 0.1
+    assert np.dot(opening.dir, closing.dir) < -0.99
