@@ -5,8 +5,8 @@ then the axis neighbourhood's fit) is started from the similarity that maps the 
 novel one (exact for pairs stretched by one factor; the factors' geometric mean for the others). What it prints
 is how far the fits move the axis from the truth when the global registration has nothing to get wrong: the
 whole model's placement and the placed one (mm, deg), the reported one-sigma, and the stretch factors found
-against the true ones (object axes x, y, z), and the whole model's own sigma at the axis, with all its pairs and
-with only the model points whose normals lie within 5 degrees of a box axis (``TILT_DEG``). For hinged boxes
+against the true ones (object axes x, y, z), and the whole model's own sigma at the axis, with the model's plane
+normals and weights (``face_normals``) and with the smoothed normals, every pair informing. For hinged boxes
 (cabinet, microwave) it also counts the scan's points on the door's edge face through the hinge (object frame:
 within 4 mm of the hinge's side plane, 4-30 mm behind the door's front) and how many of their estimated normals lie
 within ``stretch.NORMAL_COS`` of that face's normal: only those pairs count in the stretched fit.
@@ -29,6 +29,7 @@ from bench.transfer import FAMILY_DEV_SEEDS, family_descriptor
 from tasks.transfer.axis_fit import fit_axes
 from tasks.transfer.carry import grip_points
 from tasks.transfer.clouds import median_spacing
+from tasks.transfer.face_normals import model_normals
 from tasks.transfer.registration import RegistrationParams, prepare_target, surface_normals
 from tasks.transfer.similarity import Similarity, angle_between_deg, point_line_distance
 from tasks.transfer.stretch import NORMAL_COS, STRETCH_POINTS, Stretched, line_spread, smoothed_normals
@@ -41,23 +42,23 @@ def whole_sigmas(
     fine_normals: np.ndarray,
     threshold: float,
 ) -> tuple[float, float]:
-    """The whole model's position sigma at ``line`` (metres), with all of the sample ``fit_axes`` used and without
-    its points whose normals are more than ``TILT_DEG`` off every box axis."""
+    """The whole model's position sigma at ``line`` (metres) from the sample ``fit_axes`` used, with the smoothed
+    normals and every pair informing, and with the model's plane normals and weights (``face_normals``)."""
     points = pair.source.points
-    normals = smoothed_normals(points, surface_normals(points, median_spacing(points)))
+    smoothed = smoothed_normals(points, surface_normals(points, median_spacing(points)))
+    model = model_normals(smoothed)
     pick = np.random.default_rng(pair.seed).permutation(len(points))[:STRETCH_POINTS]  # as fit_axes draws it
-    sample, sample_n = points[pick], normals[pick]
-    square = np.abs(sample_n @ whole.axes).max(axis=1) >= np.cos(np.radians(TILT_DEG))
     out = []
-    for keep in (np.ones(len(pick), dtype=bool), square):
+    for normals, weight in ((smoothed, None), (model.normals, model.plane_weight[pick])):
         spread = line_spread(
             whole,
-            sample[keep],
-            sample_n[keep],
+            points[pick],
+            normals[pick],
             target=pair.target,
             target_normals=fine_normals,
             dist_m=threshold,
             line=line,
+            plane_weight=weight,
         )
         out.append(spread.pos_std_m)
     return out[0], out[1]
@@ -68,9 +69,6 @@ EDGE_FACE_M = 0.004
 cabinet's door edge is 3 mm inside the body's side) ..."""
 DOOR_DEPTH_M = 0.03
 """... and on the door's edge face when 4-30 mm behind the door's front (doors are 18-22 mm thick)."""
-TILT_DEG = 5.0
-"""A model normal more than 5 degrees off every box axis lies on a border between faces (smoothing leaves those
-tilted): the whole model's sigma is also printed without them."""
 
 
 def edge_face_normals(pair: TransferPair, normals: np.ndarray) -> tuple[int, int]:
@@ -117,13 +115,13 @@ def run(family: str, seed: int) -> None:
         edge = f" | edge face {seen:3d} pts, normals within 30 deg {agreeing:3d}"
     whole_mm = point_line_distance(pair.target_axis_pos, whole_pos, whole_dir) * 1e3
     placed_mm = point_line_distance(pair.target_axis_pos, placed_pos, placed_dir) * 1e3
-    sig_all, sig_square = whole_sigmas(pair, fits.whole, (pos, direction), fine.normals, fine.threshold)
+    sig_smoothed, sig_planes = whole_sigmas(pair, fits.whole, (pos, direction), fine.normals, fine.threshold)
     found = " ".join(f"{f:5.3f}" for f in factors)
     true = " ".join(f"{f:5.3f}" for f in pair.stretch / scale)
     print(
         f"{family:10} {seed:5d} | whole {whole_mm:6.2f} mm "
-        f"{angle_between_deg(whole_dir, pair.target_axis_dir):5.2f} deg sigma {sig_all * 1e3:5.2f} mm "
-        f"(square normals {sig_square * 1e3:5.2f}) | placed {placed_mm:6.2f} mm "
+        f"{angle_between_deg(whole_dir, pair.target_axis_dir):5.2f} deg sigma {sig_planes * 1e3:5.2f} mm "
+        f"(smoothed {sig_smoothed * 1e3:5.2f}) | placed {placed_mm:6.2f} mm "
         f"{angle_between_deg(placed_dir, pair.target_axis_dir):5.2f} deg "
         f"({'neighbourhood' if fit.local else 'whole model':13}) | sigma {fit.spread.pos_std_m * 1e3:5.2f} mm | "
         f"factors {found} true {true}{edge}",

@@ -162,10 +162,18 @@ def _small_rotation(w: Vector3) -> FloatArray:
 
 
 def _linear_system(
-    current: Stretched, p: Points, q: Points, n: Points, *, along: FloatArray, huber: float
+    current: Stretched,
+    p: Points,
+    q: Points,
+    n: Points,
+    *,
+    along: FloatArray,
+    huber: float,
+    plane_weight: FloatArray | None = None,
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Rows, residuals and robust weights of one linearised step: each pair's point-to-plane residual (``n``:
-    the carried source normals, unit, target frame) and, at
+    the carried source normals, unit, target frame; times ``plane_weight``, 0 where the model's normal states no
+    plane: ``face_normals``) and, at
     ``POINT_WEIGHT``, its three point-to-point components (which see a face's edge, where the planes do not).
     Unknowns: small rotation about the pairs' centroid (3), translation (3), relative factor changes (3)."""
     centre = p.mean(axis=0)
@@ -175,6 +183,8 @@ def _linear_system(
     d = p - centre
     plane = np.hstack([np.cross(d, n), n, d_stretch * (n @ turned_axes)])
     plane_res = np.einsum("ij,ij->i", n, q - p)
+    if plane_weight is not None:
+        plane, plane_res = plane * plane_weight[:, None], plane_res * plane_weight
     rows, res = [plane], [plane_res]
     for j in range(3):
         e = np.zeros(3)
@@ -307,13 +317,20 @@ def line_spread(
     dist_m: float,
     line: tuple[Vector3, Vector3],
     free_stretch: bool = True,
+    plane_weight: FloatArray | None = None,
+    start_pos_std_m: float | None = None,
 ) -> FitSpread:
     """The covariance of ``fitted``'s unknowns carried to the line (point, unit direction; source frame): the
     inverse of the pairs' information over the residual variance (``CORRELATED_POINTS`` pairs counting as one)
-    plus what the fit knows before the pairs, that it moved the model by no more than the correspondence
-    distance ``dist_m`` (translations within it, turns moving the pairs by at most it, factors within
-    ``MAX_STRETCH``). The information comes from the carried source normals; a direction no pair constrains (a
-    hinge on a face the scan lacks) keeps the prior's sigma, not none."""
+    plus what the fit knows before the pairs: where its start put the model (a translation within
+    ``start_pos_std_m``; by default the correspondence distance ``dist_m``, and with a free stretch what a stretch
+    up to ``MAX_STRETCH`` moves the pairs, their RMS reach times log 1.5: the start is a similarity, and where the
+    scan shows no face a similar object's may lie that far off, as a door leaf's unscanned underside leaves its
+    height, and its lever's, unmeasured), turns moving the pairs by at most ``dist_m``, factors within
+    ``MAX_STRETCH``. The information comes from the carried source normals; a direction no pair
+    constrains (a hinge on a face the scan lacks) keeps the prior's sigma, not none. ``plane_weight``: (n,) per
+    source point, 0 where its normal states no plane (a border between faces, ``face_normals``): such pairs
+    inform nothing."""
     tree = cKDTree(target)
     moved, turned, idx, ok = _matched(
         fitted,
@@ -327,16 +344,23 @@ def line_spread(
     unknowns = 9 if free_stretch else 6
     if int(ok.sum()) < 12:
         return FitSpread(float("inf"), float("inf"), float("inf"), int(ok.sum()))
+    if plane_weight is not None:
+        ok &= plane_weight > 0.0
+        if int(ok.sum()) < 12:
+            return FitSpread(float("inf"), float("inf"), float("inf"), int(ok.sum()))
     p, q, n = moved[ok], target[idx[ok]], turned[ok]
     along = (source[ok] - fitted.centre) @ fitted.axes
-    a, residual, w = _linear_system(fitted, p, q, n, along=along, huber=dist_m / 3.0)
+    weight = None if plane_weight is None else plane_weight[ok]
+    a, residual, w = _linear_system(fitted, p, q, n, along=along, huber=dist_m / 3.0, plane_weight=weight)
     plane_rows = len(p)
     rms = float(np.sqrt(np.mean(residual[:plane_rows] ** 2)))
     a = a[:plane_rows, :unknowns]  # the planes' information (the point terms see the sampling, not the surface)
     info = (a * w[:plane_rows, None]).T @ a / CORRELATED_POINTS / max(rms, 1e-9) ** 2
     centre = p.mean(axis=0)
     reach = float(np.sqrt(np.mean(((p - centre) ** 2).sum(axis=1))))
-    prior = np.full(unknowns, 1.0 / dist_m**2)  # translations
+    if start_pos_std_m is None:
+        start_pos_std_m = max(dist_m, reach * math.log(MAX_STRETCH)) if free_stretch else dist_m
+    prior = np.full(unknowns, 1.0 / start_pos_std_m**2)  # translations
     prior[:3] = (reach / dist_m) ** 2  # rotations: a turn moving the pairs by dist_m
     prior[6:] = 1.0 / math.log(MAX_STRETCH) ** 2
     cov = np.linalg.inv(info + np.diag(prior))
@@ -396,6 +420,12 @@ def fit_stretch(
     current = Stretched(best, axes, np.ones(3), centre)
     for dist in (4.0 * threshold_m, 2.0 * threshold_m, threshold_m):
         current = stretch_icp(
-            sample[0], target, target_normals, current, dist, source_normals=sample[1], final_m=threshold_m
+            sample[0],
+            target,
+            target_normals,
+            current,
+            dist,
+            source_normals=sample[1],
+            final_m=threshold_m,
         )
     return current
