@@ -1,27 +1,31 @@
 """Grasp planning entry points used by the learn stage (``G`` of the descriptor, DESCRIPTOR.md).
 
 The demonstrator's wrist tracker pose (world frame, metres, quaternion [x, y, z, w]) is turned into a seed palm
-pose through the sensor-to-palm offset; the planner (``planner.py``) searches Barrett eigengrasp amplitudes and
-a palm pose near it and returns a force-closure grasp near the demonstration: of the settled wraps
-(``settle.settled_wraps``) and then the closest, the first that holds the part under the planner's hold check on
-its own object model (``hold_check``; the mount the part stands on, ``mount.py``, an obstacle but not the free
-body), else the one that lasted longest. ``Grasp.wrist_*`` is the pose of the hand base (palm) frame
-of ``barrett.py`` in the world, +z the approach direction; ``Grasp.eigengrasps`` (a1, a2) is the posture the hand
-closes towards: execute by opening the hand at spread 1.13 + a1 (fingers ``barrett.OPEN_FINGER_RAD``), moving the
-palm along +z to the wrist pose and closing the fingers towards a2 (``barrett.CLOSE_AMPLITUDE``: fully) until they
-stop on the part, as ``tasks.simulate`` and the scenes' truth grasps do. ``quality`` holds epsilon, volume,
-force_closure, the contact count, the closed DOFs ``closed_dofs`` [spread, f1, f2, f3] (radians) found in
-planning, ``demo_offset_m`` / ``demo_angle_rad``: how far the palm lies off the demonstrated approach, and
-(``plan_grasp``) ``planned_on``: the fitted box or cylinder, a mounted part's cylinder or a cap's and convex
-pieces, or the convex pieces the grasp was planned on.
+pose through the sensor-to-palm offset (``seed.py``). ``plan_on_model`` is the planner, one search:
+
+1. every generator of ``generators.GENERATORS`` proposes states of one search space around the demonstrated palm
+   (``planner.SearchSpace``; the annealing's best unique states among them);
+2. each is executed as the robot executes a grasp (``execution.py``) and the grasps are ranked once: force closure
+   first, then closeness to the demonstration (``rank``);
+3. in that order, grasps that survive the wrist pose error of a robot (``execution.robust``: closed with the palm
+   displaced by millimetres and degrees, the same fingers still reach the part) are
+   shaken by the hold check (``hold_check``, on the planner's own object model) within
+   one time budget (``PlannerParams.hold_checks`` whole checks of simulated time): the first that holds firmly with
+   a force closure, static or once the fingers have squeezed it, is the plan (``choose``).
+
+``Grasp.wrist_*`` is the pose of the hand base (palm) frame of ``barrett.py`` in the world, +z the approach
+direction; ``Grasp.eigengrasps`` (a1, a2) is the posture the hand closes towards: execute by opening the hand at
+spread 1.13 + a1 (fingers ``barrett.OPEN_FINGER_RAD``), moving the palm along +z to the wrist pose and closing the
+fingers towards a2 (``barrett.CLOSE_AMPLITUDE``: fully) until they stop on the part, as ``tasks.simulate`` and the
+scenes' truth grasps do. ``quality`` holds epsilon, volume, force_closure, the contact count, the friction ``mu``,
+the closed DOFs ``closed_dofs`` [spread, f1, f2, f3] (radians), ``demo_offset_m`` / ``demo_angle_rad``: how far the
+palm lies off the demonstrated approach, and (``plan_grasp``) ``planned_on``.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import functools
 import math
-from collections.abc import Callable
 
 import numpy as np
 import numpy.typing as npt
@@ -30,16 +34,13 @@ from scipy.spatial.transform import Rotation
 from schemas.descriptor import Grasp
 from tasks.arrays import FloatArray, Points, Vector3
 from tasks.errors import GraspError
-from tasks.grasp.bar_pinch import square_pinches
 from tasks.grasp.candidate_grasp import grasp_from_candidate
-from tasks.grasp.hold_budget import HoldBudget, Tried, closed_or_squeezed, held_closure, squeezed, with_closure
-from tasks.grasp.hold_check import (
-    CHECK_CYCLES,
-    PRIMITIVE_CHECK_CYCLES,
-)
+from tasks.grasp.execution import GraspCandidate, execute_states, hand_and_object, robust
+from tasks.grasp.generators import GENERATORS
+from tasks.grasp.hold_check import CHECK_LENGTH_S, CHECK_SHIFT_M, CHECK_TURN_TOL_RAD, hold_check
 from tasks.grasp.object_model import ObjectModel, build_object_model, check_object_points, crop_points
-from tasks.grasp.pinch import ROLLED_PINCH_RAD, pinch_candidates, pinch_neighbours
-from tasks.grasp.planner import GraspCandidate, PlannerParams, rank_tier, search
+from tasks.grasp.planner import PlannerParams, search_space
+from tasks.grasp.quality import GraspQuality, grasp_quality
 from tasks.grasp.seed import (
     GRASPIT_TRACKER_OFFSET,
     PalmOffset,
@@ -48,128 +49,23 @@ from tasks.grasp.seed import (
     stillest_time_ns,
     wrist_pose_at,
 )
-from tasks.grasp.settle import LATE_WRAP_SETTLES, WRAP_SETTLES, settled_wraps
-from tasks.grasp.shake import QUICK_SHAKE
-from tasks.grasp.slide import slide_candidates
+from tasks.grasp.shake import ShakeResult, shake_test
 from tasks.recording.load import PoseTrack
 
 CROP_RADIUS_M = 0.15
 """Object points farther than this from the part nearest the seed palm are left out (the part to grasp)."""
-SHAKE_CHECKS = 5
-"""Force-closure candidates near the demonstration (in rank order) given the quick shake test."""
-FALLBACK_CHECKS = 5
-"""Further candidates given the quick shake test when none of those holds (reached ones, then the rest)."""
-ROUNDS = 2
-"""Annealing rounds tried while no near force closure holds (the second on the model's pieces drawn anew). On a part
-with a bar or a mount, the grasps slid along the bar and the pinches (``_slid``, ``_pinch``) are checked before the
-second round and the redraws: where a bar's plate or a lever's leaf stops fingers wrapping from near the
-demonstrated palm, another annealing round near that palm (1.5-4 s a plan) meets the same obstacle, while a slid
-grasp or a pinch avoids it."""
-REDRAWS = 4
-"""Then rounds of the demonstrated approach's poses alone (no annealing, about 0.2 s each), each on pieces drawn
-anew: which of them close into force closure on a scan depends on how its convex pieces fall."""
-DYNAMIC_CHECKS = 24
-"""On a part with a mount (a handle or a lever) or a fitted box or cylinder, when none of the first round's force
-closures holds: up to this many more hold checks, with a budget of their own (``hold_budget.CHECK_BUDGET_S``; most fail
-within 0.1 s simulated), of its near grasps without a static force closure. Closed on a static model the fingers push a
-bar away from the palm and touch it on one side; squeezing, they hold it (``squeezed``): a lever grasp may show
-epsilon 0 closed statically and a force closure once squeezed. Not run on the convex pieces of a part without a
-mount: there the squeezed closures it finds do not carry over to the real surface, and the pass lengthens a plan
-by seconds; on a fitted primitive it runs, with checks of ``PRIMITIVE_CHECK_CYCLES``."""
-PINCH_CHECKS = 10
-"""When no grasp near the demonstration holds: hold checks of fingertip pinches held back on the demonstrated
-approach (``pinch.py``), with a budget of their own; a pinch without a static force closure is kept when it shows
-one once squeezed (``squeezed``). On a handle standing 18-30 mm in front of its plate, fingers wrapping the bar
-from near the demonstrated palm meet the plate before they squeeze; a palm held back 70-90 mm reaches the bar with
-the fingertips, clear of the plate (``pinch.py``)."""
-SLIDE_CHECKS = 16
-"""On a mounted part whose bar was found (``ObjectModel.cylinder``), when no grasp near the demonstration holds it
-firmly: hold checks, with a budget of their own, of the grasps slid along the bar (``slide.py``; most fail within
-0.1 s simulated), before the firm pinches and the loose near grasp."""
-ROLLED_PINCH_CHECKS = 6
-"""When no pinch of the demonstrated palm nor any of its neighbours holds with a force closure: hold checks of the
-pinches rolled ``pinch.ROLLED_PINCH_RAD``, only of those with a force closure (static or squeezed, about 0.02 s CPU
-each to find), with a budget of their own."""
-SQUARE_PINCH_CHECKS = 6
-"""Hold checks of the pinches square to the part's bar (``bar_pinch.square_pinches``), only of those with a force
-closure, with a budget of their own, before the pinches of the demonstrated palm's orientation: a demonstrated palm
-is commonly tilted and rolled 10-30° off the bar's square, and tilted fingertips meet a round bar at different
-heights, so a squeeze rolls it out of them; square to the bar they close on its sides at its widest."""
-NEIGHBOUR_CHECKS = 8
-"""When a pinch held without a force closure: hold checks of its neighbours (``pinch.pinch_neighbours``), with a
-budget of their own."""
-SHAKE_BUDGET = 6
-"""Hold checks one plan may run on near force closures (``FALLBACK_CHECKS`` more after them), within
-``hold_budget.CHECK_BUDGET_S`` simulated seconds of shaking."""
-CHECK_MAX_ANGLE_RAD = math.radians(15.5)
-"""Only near force closures turned at most 15° from the demonstrated palm (the demonstrated approach's rolls,
-``planner.LINE_POSES``) are checked and chosen for holding: a grasp turned further from the demonstrated palm
-can hold under the check on the planner's model and close on nothing in execution (a thin bar handle)."""
+HELD_MU = 0.8
+"""Friction coefficient of the hold check's contacts: the part's 0.8 (``shake.ShakeParams.friction``) times the
+finger pads' 1.0, as Bullet combines them: a grasp that held without a force closure at ``PlannerParams.mu`` is
+judged at the friction it was held with."""
+FIRM = 0.5
+"""A grasp that held but let the part move or turn more than this fraction of the check's tolerances is kept back
+while a firmer one may be found: slip that starts in a short check goes on in a longer one."""
 
 
-def redecomposed(model: ObjectModel, rng: np.random.Generator) -> ObjectModel:
-    """The model with its convex pieces drawn anew (``ObjectModel.with_pieces``: k-means from ``rng``, the part's
-    and the mount's apart); a primitive model as it is. Which
-    grasps close into force closure on a scan depends on how its pieces fall (the door's lever: near force
-    closures with some draws, none with others)."""
-    return model.with_pieces(rng)
-
-
-def _slid(  # noqa: PLR0917 -- model, seed pose, params, two sinks
-    model: ObjectModel,
-    seed_rot: FloatArray,
-    seed_pos: Vector3,
-    prm: PlannerParams,
-    loose: list[GraspCandidate],
-    held: list[GraspCandidate],
-) -> GraspCandidate | None:
-    """The first grasp slid along the part's bar that holds firmly with a force closure (static or squeezed); the
-    ones that hold loosely are added to ``loose``, those that hold without a force closure to ``held``."""
-    found = ((c, model) for c in slide_candidates(model, seed_rot, seed_pos, prm))
-    budget = HoldBudget(SLIDE_CHECKS, loose=loose)
-    slid = budget.first_that_holds(found, SLIDE_CHECKS, accept=functools.partial(closed_or_squeezed, mu=prm.mu))
-    held += budget.unaccepted
-    return slid
-
-
-def _pinch(
-    model: ObjectModel,
-    seed_rot: FloatArray,
-    seed_pos: Vector3,
-    prm: PlannerParams,
-    held: list[GraspCandidate],
-    *,
-    loose: list[GraspCandidate] | None = None,
-) -> GraspCandidate | None:
-    """The first fingertip pinch square to the part's bar (``bar_pinch.square_pinches``, of those with a force
-    closure, static or squeezed) that holds under ``hold_check``; then the first pinch of the demonstrated palm's
-    orientation (``pinch.pinch_candidates``) that holds with a force closure, static or squeezed; when one held
-    without any, the first of its neighbours (``pinch.pinch_neighbours``) that
-    does; then the first of the pinches rolled ``pinch.ROLLED_PINCH_RAD`` that does; else None. The pinches that
-    held without a force closure are added to ``held``; when ``loose`` is given, only a firm pinch is returned
-    (``hold_budget.FIRM_SHIFT_M``) and the loose ones are added to it."""
-
-    square = square_pinches(model, seed_rot, seed_pos, prm)
-    square_budget = HoldBudget(SQUARE_PINCH_CHECKS, loose=loose)
-    squared = square_budget.first_that_holds(with_closure(square, model, prm.mu), SQUARE_PINCH_CHECKS)
-    if squared is not None:
-        return squared
-    closed = functools.partial(closed_or_squeezed, mu=prm.mu)
-    budget = HoldBudget(PINCH_CHECKS, loose=loose)
-    found = pinch_candidates(model, seed_rot, seed_pos, prm)
-    pinched = budget.first_that_holds([(c, model) for c in found], PINCH_CHECKS, accept=closed)
-    held += budget.unaccepted
-    if pinched is not None:
-        return pinched
-    if budget.unaccepted:
-        near = pinch_neighbours(model, seed_rot, seed_pos, prm, budget.unaccepted[0])
-        neighbours = HoldBudget(NEIGHBOUR_CHECKS, loose=loose)
-        neighbour = neighbours.first_that_holds(with_closure(near, model, prm.mu), NEIGHBOUR_CHECKS)
-        if neighbour is not None:
-            return neighbour
-    rolled = pinch_candidates(model, seed_rot, seed_pos, prm, rolls_rad=ROLLED_PINCH_RAD)
-    rolled_budget = HoldBudget(ROLLED_PINCH_CHECKS, loose=loose)
-    return rolled_budget.first_that_holds(with_closure(rolled, model, prm.mu), ROLLED_PINCH_CHECKS)
+def rank(cand: GraspCandidate) -> tuple[bool, float]:
+    """The one ranking: force closure first, then closeness to the demonstration (``execution.closeness``)."""
+    return not cand.quality.force_closure, cand.closeness
 
 
 def plan_on_model(
@@ -178,125 +74,61 @@ def plan_on_model(
     seed_quat_xyzw: FloatArray,
     rng: np.random.Generator,
     params: PlannerParams | None = None,
-    *,
-    shake_checks: int = SHAKE_CHECKS,
 ) -> GraspCandidate:
-    """Best candidate on a built model from a palm seed: the first that holds under ``hold_check`` (three cycles,
-    ``PRIMITIVE_CHECK_CYCLES``, on a fitted primitive) of the first round's settled wraps (``settle.settled_wraps``),
-    then the force-closure grasps near the demonstration in order of closeness (up to ``shake_checks`` a round,
-    ``SHAKE_BUDGET`` and ``hold_budget.CHECK_BUDGET_S`` in all; when none of the first round's holds, the wraps of its
-    4th to 10th closest grasps, ``settle.LATE_WRAP_SETTLES``; while none holds and a whole check still fits, ``ROUNDS``
-    annealing rounds then ``REDRAWS`` rounds of the demonstrated approach's poses, each after the first on the model's
-    pieces drawn anew, ``redecomposed``; on a mounted part, after the first round, its near grasps without a static
-    force closure that hold and show one once squeezed, ``DYNAMIC_CHECKS``, and so on a fitted primitive; on a part
-    with a bar, the grasps slid along it, ``_slid``, and on a mounted part the fingertip pinches (square to its bar
-    first), ``_pinch``, both checked after the first round and before the second (``ROUNDS``); on a part planned on its
-    bar, a grasp that held loosely, ``hold_budget.FIRM_SHIFT_M``, is kept back for the later passes and returned when
-    none of them holds firmly); then the first grasp that held
-    without a force closure at ``params.mu`` whose squeezed contacts show one at the hold check's friction,
-    ``hold_budget.held_closure``. When none holds: the checked force closure that lasted longest, else the first near
-    force closure. Without any near force closure (nothing within reach of the demonstrated palm), up to
-    ``FALLBACK_CHECKS`` under ``QUICK_SHAKE`` of: the force closures reached further along the demonstrated approach,
-    the other near grasps, the other reached ones; when none holds, the first reached force closure, else the closest
-    grasp near the demonstration (force_closure False: a distant grasp would not be the demonstrated one), else the
-    closest."""
+    """The planned grasp on a built model from a palm seed (world): see the module docstring. Raises
+    ``GraspError`` when no proposal can be executed (the open hand collides everywhere near the seed)."""
     pos, quat = check_seed(seed_position, seed_quat_xyzw)
-    seed_rot = Rotation.from_quat(quat).as_matrix()
-    # a fitted primitive is cheap to shake: three cycles, so slow slip shows before it is chosen
-    loose: list[GraspCandidate] = []
-    kept_back = loose if model.cylinder is not None else None  # a round bar may roll out of a grasp that held 6 s
-    budget = HoldBudget(
-        SHAKE_BUDGET, cycles=CHECK_CYCLES if model.primitive is None else PRIMITIVE_CHECK_CYCLES, loose=kept_back
-    )
-    tried: list[Tried] = []
-    closure: list[Tried] = []
-    without_closure: list[GraspCandidate] = []  # held under the check, no force closure at prm.mu even squeezed
     prm = params or PlannerParams()
-    bar_or_mount = model.cylinder is not None or model.mount is not None
-    passed = False  # the passes away from the demonstrated grasp (slid along the bar, pinches) have run
-
-    def passes() -> GraspCandidate | None:
-        """The first firm grasp slid along the bar, else the first pinch that holds (``_slid``, ``_pinch``)."""
-        nonlocal passed
-        passed = True
-        if model.cylinder is not None:  # a bar: held anywhere along it
-            slid = _slid(model, seed_rot, pos, prm, loose, without_closure)
-            if slid is not None:
-                return slid
-        if model.mount is not None:  # a handle or lever whose mount may stop the fingers wrapping it
-            # with a loosely held grasp in hand, only a firm pinch is taken over it
-            return _pinch(model, seed_rot, pos, prm, without_closure, loose=[] if loose else None)
-        return None
-
-    for k in range(ROUNDS + REDRAWS):
-        if k == 1 and bar_or_mount:  # before searching the demonstration's neighbourhood again (``ROUNDS``)
-            moved = passes()
-            if moved is not None:
-                return moved
-        if k == ROUNDS and not tried:
-            break  # the hand fits nowhere near the seed: redrawing the pieces would only find grazing pockets
-        variant = model if k == 0 else redecomposed(model, rng)
-        round_prm = prm if k < ROUNDS else dataclasses.replace(prm, chains=0)
-        found = [(c, variant) for c in search(variant, seed_rot, pos, rng, round_prm)]
-        tried += found
-        new = [t for t in found if t[0].near and rank_tier(t[0].quality) == 0]
-        wraps_of = functools.partial(
-            settled_wraps,
-            [c for c, _ in found],
-            variant,
-            pos,
-            seed_rot,
-            prm.near_position_m,
-            CHECK_MAX_ANGLE_RAD,
-            mu=prm.mu,
-        )
-        if k == 0:  # wraps the static closing misses: fingers that pull the part into the palm
-            new = [(c, variant) for c in wraps_of()] + new  # a palm-on-part wrap first: it held where fingertips slid
-        closure += new
-        held = budget.first_that_holds([t for t in new if t[0].angle_rad <= CHECK_MAX_ANGLE_RAD], shake_checks)
-        if held is None and k == 0 and not budget.spent():  # wraps from grasps further from the demonstration
-            late = wraps_of(count=LATE_WRAP_SETTLES, skip=WRAP_SETTLES)
-            closure += [(c, variant) for c in late]
-            held = budget.first_that_holds([(c, variant) for c in late], shake_checks)
-        if held is None and k == 0 and (variant.mount is not None or variant.primitive is not None):
-            dynamic = [
-                t for t in found if t[0].near and rank_tier(t[0].quality) != 0 and t[0].angle_rad <= CHECK_MAX_ANGLE_RAD
-            ]
-            extra = HoldBudget(DYNAMIC_CHECKS, cycles=budget.cycles, loose=kept_back)  # most fail within 0.1 s
-            held = extra.first_that_holds(dynamic, DYNAMIC_CHECKS, accept=lambda t: squeezed(t, prm.mu))
-            without_closure += extra.unaccepted
-        if held is not None:
-            return held
-        if closure and budget.spent():
-            break
-    if not passed:
-        moved = passes()
-        if moved is not None:
-            return moved
-    if loose:  # the grasp that held loosely, when nothing held firmly
-        return loose[0]
-    held_fc = held_closure(without_closure, model)  # a grasp that held, in force closure at the check's friction
-    if held_fc is not None:
-        return held_fc
-    if not tried:
+    space = search_space(model, Rotation.from_quat(quat).as_matrix(), pos, prm)
+    proposals = [p for generate in GENERATORS.values() for p in generate(model, space, prm, rng)]
+    ranked = sorted(execute_states(model, space, proposals, prm), key=rank)
+    if not ranked:
         msg = "no collision-free grasp found near the seed pose"
         raise GraspError(msg)
+    return choose(model, ranked, prm)
 
-    def ordered(keep: Callable[[GraspCandidate], bool]) -> list[Tried]:
-        return sorted((t for t in tried if keep(t[0])), key=lambda t: t[0].closeness)
 
-    if closure:
-        return budget.longest or closure[0][0]
-    budget = HoldBudget(FALLBACK_CHECKS, math.inf)  # quick checks, as many as FALLBACK_CHECKS
-    others = ordered(lambda c: c.near and rank_tier(c.quality) != 0)
-    reached = ordered(lambda c: c.reach and not c.near and rank_tier(c.quality) == 0)
-    further = ordered(lambda c: c.reach and not c.near and rank_tier(c.quality) != 0)
-    held = budget.first_that_holds(reached + others + further, FALLBACK_CHECKS, lambda _: QUICK_SHAKE)
-    if held is not None:
-        return held
-    if reached:
-        return reached[0][0]
-    return min((t[0] for t in tried), key=lambda c: (not c.near, c.closeness, rank_tier(c.quality)))
+def _squeezed(result: ShakeResult, model: ObjectModel, mu: float) -> GraspQuality:
+    if result.squeezed_positions is None or result.squeezed_normals is None:
+        return GraspQuality(0, mu=mu)
+    return grasp_quality(result.squeezed_positions, result.squeezed_normals, model.center, model.radius, mu)
+
+
+def choose(model: ObjectModel, ranked: list[GraspCandidate], params: PlannerParams) -> GraspCandidate:
+    """The first of ``ranked`` that survives the wrist error (``execution.robust``) and holds firmly (``FIRM``) under
+    ``hold_check`` with a force closure at ``params.mu``, static or squeezed (then with the squeezed quality), while
+    the budget lasts (a check starts only while a whole one fits in the simulated time left); else the first that
+    held loosely; else the first that held with a squeezed force closure at ``HELD_MU``; else the checked force
+    closure that lasted longest; else the first force closure; else the first."""
+    left = params.hold_checks * CHECK_LENGTH_S
+    loose: list[GraspCandidate] = []
+    held: list[GraspCandidate] = []
+    longest: tuple[float, GraspCandidate] | None = None
+    with hand_and_object(model) as ids:
+        for cand in ranked:
+            if left < CHECK_LENGTH_S:
+                break
+            if not robust(ids, model, cand, params.mu):
+                continue  # a grasp that only holds at the exact planned pose is not a grasp
+            result = shake_test(model, grasp_from_candidate(cand), hold_check(cand.quat_xyzw))
+            left -= result.survived_s
+            quality = cand.quality if cand.quality.force_closure else _squeezed(result, model, params.mu)
+            if result.holds and quality.force_closure:
+                chosen = dataclasses.replace(cand, quality=quality)
+                if result.max_shift_m <= FIRM * CHECK_SHIFT_M and result.max_turn_rad <= FIRM * CHECK_TURN_TOL_RAD:
+                    return chosen
+                loose.append(chosen)
+            elif result.holds:
+                at_held = _squeezed(result, model, HELD_MU)
+                if at_held.force_closure:
+                    held.append(dataclasses.replace(cand, quality=at_held))
+            if cand.quality.force_closure and (longest is None or result.survived_s > longest[0]):
+                longest = (result.survived_s, cand)
+    if loose or held:
+        return (loose + held)[0]
+    if longest is not None:
+        return longest[1]
+    return next((c for c in ranked if c.quality.force_closure), ranked[0])
 
 
 def plan_grasp(

@@ -4,7 +4,7 @@
 from __future__ import annotations
 
 from schemas.descriptor import Grasp
-from tasks.grasp.planner import GraspCandidate
+from tasks.grasp.execution import GraspCandidate
 from tasks.hand import barrett
 
 HAND = "barrett"

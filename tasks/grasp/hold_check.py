@@ -20,10 +20,6 @@ CHECK_CYCLES = 1.0
 """``hold_check``'s program: gravity tilt (rad), translation peak acceleration (m/s²) and frequency (Hz), palm
 turn amplitude (rad) and frequency (Hz), cycles of each motion (whole cycles: A (1 - cos ωt) ends where it
 began)."""
-PRIMITIVE_CHECK_CYCLES = 3.0
-"""Cycles of each motion when the model is a fitted box or cylinder (15 s simulated): a primitive costs a fraction
-of a scan's convex pieces per simulated second, and slow slip that stays under 5 mm in one cycle can pass 10 mm in
-three."""
 
 
 def check_length_s(cycles: float = CHECK_CYCLES) -> float:

@@ -73,8 +73,6 @@ class ObjectModel:
     primitive: PrimitiveShape | None = None
     mount: BoolArray | None = None
     mount_parts: int = 0
-    fitted: bool = False
-    """Whether the part's pieces came from ``_part_pieces`` (so their redraws do too)."""
     cylinder: PrimitiveShape | None = None
     """The cylinder found in a mounted part (``part_cylinders``), its first piece, if any."""
     cap: PrimitiveShape | None = None
@@ -105,19 +103,6 @@ class ObjectModel:
         keep = ~self.mount
         parts = self.parts[: len(self.parts) - self.mount_parts]
         return ObjectModel(self.points[keep], self.normals[keep], self.center, self.radius, parts)
-
-    def with_pieces(self, rng: np.random.Generator) -> ObjectModel:
-        """The model with its convex pieces drawn anew (k-means from ``rng``), the part's and the mount's apart; a
-        primitive model as it is."""
-        if self.primitive is not None or not self.parts:
-            return self
-        if self.mount is None or not self.mount_parts:
-            return ObjectModel(
-                self.points, self.normals, self.center, self.radius, convex_parts(self.points, self.normals, rng)
-            )
-        if self.cap is not None:
-            return _capped(self.points, self.normals, self.mount, self.cap, rng)
-        return _mounted(self.points, self.normals, self.mount, rng, fit=self.fitted)
 
 
 def check_object_points(points: object, name: str = "object_points") -> Points:
@@ -354,9 +339,7 @@ def _mounted(
         _part_pieces(grip, normals[~mount], rng) if fit else (None, convex_parts(grip, normals[~mount], rng))
     )
     mount_pieces = convex_parts(points[mount], normals[mount], rng)
-    return ObjectModel(
-        points, normals, center, radius, pieces + mount_pieces, None, mount, len(mount_pieces), fit, cylinder
-    )
+    return ObjectModel(points, normals, center, radius, pieces + mount_pieces, None, mount, len(mount_pieces), cylinder)
 
 
 def _capped(
@@ -465,7 +448,6 @@ def load_object(client_id: int, model: ObjectModel, *, mass_kg: float = 0.0, fri
             shapes.append(
                 pb.createCollisionShape(pb.GEOM_MESH, vertices=(part - c).tolist(), physicsClientId=client_id)
             )
-        base_pos = model.center
         n = len(shapes)
         body = int(
             pb.createMultiBody(
@@ -485,7 +467,6 @@ def load_object(client_id: int, model: ObjectModel, *, mass_kg: float = 0.0, fri
                 physicsClientId=client_id,
             )
         )
-        del base_pos
     for link in range(-1, pb.getNumJoints(body, physicsClientId=client_id)):
         pb.changeDynamics(body, link, lateralFriction=friction, physicsClientId=client_id)
     return body

@@ -6,11 +6,11 @@ torques divided by the object's largest radius so forces and torques are compara
 is the convex hull (scipy's qhull) of all edge wrenches: epsilon = radius of the largest origin-centred ball
 inside it (0 when the origin is not strictly inside, i.e. no force closure), volume = its 6-D volume.
 
-Most grasps the planner tries have no force closure (93 % of the 394 contact sets of three plans), and qhull's
-6-D hull of up to 128 edge wrenches takes up to 35 ms. A linear program (scipy's HiGHS: is the origin a convex
-combination of the edge wrenches?) answers "outside" in about 1 ms; the hull is then left out, and the volume is
-computed only when asked for (``GraspQuality.volume``). On those 394 sets the program and the hull agreed every
-time, and the planner's quality time fell from 3.2 s to 0.7 s.
+Force closure is decided by one linear program (scipy's HiGHS), without the hull: the origin lies inside the
+hull exactly when the edge wrenches span the six dimensions and a combination of all of them with every weight
+positive sums to zero (the relative interior of a hull is the set of such combinations). The hull (qhull's 6-D hull
+of up to 128 edge wrenches takes up to 35 ms) is built only when epsilon or the volume is asked for: the planner
+ranks and checks grasps by force closure and reports the qualities of the one it keeps.
 """
 
 from __future__ import annotations
@@ -32,25 +32,42 @@ DEFAULT_MU = 0.5
 
 @dataclass(frozen=True)
 class GraspQuality:
-    """Epsilon (L1 GWS, unitless), force closure, the number of contacts used, and the (8 m, 6) edge wrenches;
-    ``volume`` of the GWS on first use (``hull_volume`` when the hull was already built); ``mu`` the friction
-    coefficient they were computed with."""
+    """The number of contacts used and their (8 m, 6) edge wrenches, ``mu`` the friction coefficient they were
+    computed with; ``force_closure`` (``_origin_inside``), ``epsilon`` (L1 GWS, unitless; 0 without force closure)
+    and ``volume`` (6-D, unitless; 0 when the GWS is flat) on first use."""
 
-    epsilon: float
-    force_closure: bool
     contacts: int
     wrenches: FloatArray = field(default_factory=lambda: np.zeros((0, 6)), repr=False, compare=False)
-    hull_volume: float | None = field(default=None, repr=False, compare=False)
     mu: float = DEFAULT_MU
     """The friction coefficient of the contacts' cones."""
 
     @cached_property
+    def force_closure(self) -> bool:
+        """Whether the origin lies inside the grasp wrench space."""
+        return _origin_inside(self.wrenches)
+
+    @cached_property
+    def _hull(self) -> ConvexHull | None:
+        """qhull's hull of the wrenches, None when they span fewer than six dimensions."""
+        if len(self.wrenches) == 0 or np.linalg.matrix_rank(self.wrenches, tol=1e-9) < 6:
+            return None
+        try:
+            return ConvexHull(self.wrenches)
+        except QhullError:
+            return None
+
+    @cached_property
+    def epsilon(self) -> float:
+        """Radius of the largest origin-centred ball inside the grasp wrench space (0 without force closure)."""
+        if not self.force_closure or self._hull is None:
+            return 0.0
+        # facets: normal·x + offset <= 0 inside, unit normals; the origin's distance to a facet is -offset
+        return max(float(np.min(-self._hull.equations[:, -1])), 0.0)
+
+    @cached_property
     def volume(self) -> float:
         """6-D volume of the grasp wrench space (unitless; 0 when it is flat)."""
-        if self.hull_volume is not None:
-            return self.hull_volume
-        hull = _hull(self.wrenches)
-        return 0.0 if hull is None else float(hull.volume)
+        return 0.0 if self._hull is None else float(self._hull.volume)
 
 
 def contact_wrenches(positions: Points, normals_in: Points, center: Vector3, radius: float, mu: float) -> FloatArray:
@@ -72,43 +89,31 @@ def contact_wrenches(positions: Points, normals_in: Points, center: Vector3, rad
 def grasp_quality(
     positions: Points, normals_in: Points, center: Vector3, radius: float, mu: float = DEFAULT_MU
 ) -> GraspQuality:
-    """Epsilon and volume of the grasp wrench space of the contacts (see module docstring)."""
-    count = len(positions)
-    if count == 0:
-        return GraspQuality(0.0, False, 0, mu=mu)
-    wrenches = contact_wrenches(positions, normals_in, center, radius, mu)
-    if not _origin_in_hull(wrenches):
-        return GraspQuality(0.0, False, count, wrenches, mu=mu)
-    hull = _hull(wrenches)
-    if hull is None:
-        return GraspQuality(0.0, False, count, wrenches, 0.0, mu=mu)
-    # facets: normal·x + offset <= 0 inside, unit normals; the origin's distance to a facet is -offset
-    epsilon = float(np.min(-hull.equations[:, -1]))
-    closure = epsilon > 1e-9
-    return GraspQuality(max(epsilon, 0.0), closure, count, wrenches, float(hull.volume), mu=mu)
+    """The quality of the contacts (see the module docstring), each measure computed on first use."""
+    if len(positions) == 0:
+        return GraspQuality(0, mu=mu)
+    return GraspQuality(len(positions), contact_wrenches(positions, normals_in, center, radius, mu), mu=mu)
 
 
-def _hull(wrenches: FloatArray) -> ConvexHull | None:
-    """qhull's hull of the wrenches, None when they span fewer than six dimensions."""
-    if len(wrenches) == 0 or np.linalg.matrix_rank(wrenches, tol=1e-9) < 6:
-        return None
-    try:
-        return ConvexHull(wrenches)
-    except QhullError:
-        return None
-
-
-def _origin_in_hull(wrenches: FloatArray) -> bool:
-    """Whether the origin is a convex combination of the (k, 6) wrenches (feasibility of sum l_i w_i = 0,
-    sum l_i = 1, l >= 0 by HiGHS): False means no force closure; True leaves it to the hull (on its boundary or
-    inside)."""
+def _origin_inside(wrenches: FloatArray) -> bool:
+    """Whether the origin lies inside the hull of the (k, 6) wrenches: they span six dimensions and the largest
+    smallest weight s of a combination sum l_i w_i = 0, sum l_i = 1, l_i >= s (HiGHS) exceeds ``MIN_WEIGHT``."""
     k = len(wrenches)
-    a_eq = np.vstack([wrenches.T, np.ones((1, k))])
+    if k < 7 or np.linalg.matrix_rank(wrenches, tol=1e-9) < 6:
+        return False
+    a_eq = np.zeros((7, k + 1))
+    a_eq[:6, :k] = wrenches.T
+    a_eq[6, :k] = 1.0
     b_eq = np.zeros(7)
     b_eq[6] = 1.0
-    result = linprog(np.zeros(k), A_eq=a_eq, b_eq=b_eq, bounds=(0.0, None), method="highs")
-    return bool(result.status != _INFEASIBLE)
+    a_ub = np.hstack([-np.eye(k), np.ones((k, 1))])  # s - l_i <= 0
+    cost = np.zeros(k + 1)
+    cost[-1] = -1.0
+    bounds = [(0.0, None)] * k + [(None, None)]
+    result = linprog(cost, A_ub=a_ub, b_ub=np.zeros(k), A_eq=a_eq, b_eq=b_eq, bounds=bounds, method="highs")
+    return bool(result.status == 0 and -float(result.fun) > MIN_WEIGHT)
 
 
-_INFEASIBLE = 2
-"""``scipy.optimize.linprog``'s status for an infeasible problem."""
+MIN_WEIGHT = 1e-7
+"""Smallest weight per edge wrench of a balanced combination for the origin to count as inside (HiGHS's feasibility
+tolerance): below it the origin lies on the hull's boundary, no force closure."""

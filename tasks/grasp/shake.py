@@ -1,6 +1,6 @@
 """Shake test: does a grasp hold the part as a free body under gravity and shaking (pybullet, DIRECT)?
 
-The part (the planner's object model, optionally cropped around the contacts) is a dynamic body of 0.3 kg made
+The part (the planner's object model) is a dynamic body of 0.3 kg made
 of its convex pieces or primitive. The hand is placed at the grasp's palm pose open at the grasp's spread
 (``closing.open_free``), the fingers are closed kinematically to contact, then position-controlled 0.3 rad
 past contact with at most ``squeeze_torque_nm`` (1.5 N m) so they press. A model with a known mount (the face
@@ -30,8 +30,7 @@ from scipy.spatial.transform import Rotation
 from schemas.descriptor import Grasp
 from tasks.arrays import FloatArray, Points, Vector3
 from tasks.grasp import closing
-from tasks.grasp.object_model import ObjectModel, convex_parts, load_object
-from tasks.grasp.primitive_shape import MIN_POINTS
+from tasks.grasp.object_model import ObjectModel, load_object
 from tasks.hand import barrett
 
 TIME_STEP_S = 1.0 / 240.0
@@ -59,8 +58,7 @@ class ShakeParams:
     ``SHAKE_DIRECTIONS`` (x, y, z, xy, yz) to shake along, squeeze past
     contact (rad) and its torque (N m), friction, tolerances; ``close`` False holds the eigengrasp posture itself;
     ``gravity``: world gravity vectors (m/s²), one phase each; ``motions``: the shakes of each phase (``program``);
-    ``part_radius_m``: the free body is the object's points within this distance of the contacts' centroid (the
-    grasped part: a handle, a cap), None for the whole object; ``spinning_friction_m``: torsional friction of
+    ``spinning_friction_m``: torsional friction of
     the rubber finger pads (pybullet point contacts have none otherwise); ``solver_iterations``: 150, since
     pybullet's default 50 lets squeezed contacts creep."""
 
@@ -75,7 +73,6 @@ class ShakeParams:
     max_shift_m: float = 0.01
     max_turn_rad: float = math.radians(10.0)
     close: bool = True
-    part_radius_m: float | None = None
     spinning_friction_m: float = 0.002
     solver_iterations: int = 150
     gravity: tuple[tuple[float, float, float], ...] = ((0.0, 0.0, -9.81),)
@@ -105,6 +102,10 @@ class ShakeResult:
     max_shift_m: float
     max_turn_rad: float
     survived_s: float = 0.0
+    squeezed_positions: Points | None = None
+    squeezed_normals: Points | None = None
+    """The contacts (m, 3) once the fingers have squeezed the part for 0.3 s without gravity, and their normals into
+    the part, expressed where the model has the part (world, m): what the squeezing hand holds."""
 
 
 def _relative(client_id: int, hand: int, obj: int) -> tuple[FloatArray, Rotation]:
@@ -112,21 +113,6 @@ def _relative(client_id: int, hand: int, obj: int) -> tuple[FloatArray, Rotation
     op, oq = pb.getBasePositionAndOrientation(obj, physicsClientId=client_id)
     r_hand = Rotation.from_quat(hq)
     return r_hand.inv().apply(np.array(op) - np.array(hp)), r_hand.inv() * Rotation.from_quat(oq)
-
-
-def _grasped_part(model: ObjectModel, contact_positions: Points, radius_m: float) -> ObjectModel:
-    """The model's points within ``radius_m`` of the contacts' centroid, as a model of its own (or ``model``
-    itself when that keeps everything or too little)."""
-    if len(contact_positions) == 0:
-        return model
-    keep = np.linalg.norm(model.points - contact_positions.mean(axis=0), axis=1) <= radius_m
-    if keep.all() or keep.sum() < MIN_POINTS:
-        return model
-    pts = model.points[keep]
-    nrm = model.normals[keep]
-    centre = pts.mean(axis=0)
-    radius = float(np.linalg.norm(pts - centre, axis=1).max())
-    return ObjectModel(pts, nrm, centre, radius, convex_parts(pts, nrm, np.random.default_rng(0)))
 
 
 def grip(  # noqa: PLR0917 -- pybullet client, model, palm pose, posture, settings
@@ -152,17 +138,13 @@ def grip(  # noqa: PLR0917 -- pybullet client, model, palm pose, posture, settin
     if prm.close:
         opened = closing.open_free(client, hand, obj, float(dofs[0]))
         closed = closing.close_fingers(client, hand, obj, opened)
-        free = part_only
-        if mounted or prm.part_radius_m is not None:
+        if mounted:
             contacts = closing.contacts_of(client, hand, obj)
             on_mount = model.is_mount_piece(contacts.pieces)
             for finger, links in enumerate(barrett.FINGER_LINKS):
                 blocked[finger] = bool(np.any(on_mount & np.isin(contacts.links, links)))
-            if prm.part_radius_m is not None:
-                free = _grasped_part(part_only, contacts.positions[~on_mount], prm.part_radius_m)
-        if mounted or free is not part_only:
             pb.removeBody(obj, physicsClientId=client)
-            obj = load_object(client, free, mass_kg=prm.mass_kg, friction=prm.friction)
+            obj = load_object(client, part_only, mass_kg=prm.mass_kg, friction=prm.friction)
     else:
         barrett.apply_dofs(client, hand, dofs)
         closed = np.concatenate([dofs, barrett.coupled_distal(dofs[1:])])
@@ -206,8 +188,10 @@ def shake_test(model: ObjectModel, grasp: Grasp, params: ShakeParams | None = No
         pos = np.array(grasp.wrist_position)
         quat = np.array(grasp.wrist_orientation)
         hand, obj, anchor = grip(client, model, pos, quat, barrett.dofs_from_eigengrasps(*grasp.eigengrasps), prm)
+        start = pb.getBasePositionAndOrientation(obj, physicsClientId=client)
         for _ in range(int(0.3 / TIME_STEP_S)):
             pb.stepSimulation(physicsClientId=client)
+        squeezed = _squeezed_contacts(client, hand, obj, start)
         ref_pos, ref_rot = _relative(client, hand, obj)
         shift = 0.0
         turn = 0.0
@@ -257,10 +241,16 @@ def shake_test(model: ObjectModel, grasp: Grasp, params: ShakeParams | None = No
     finally:
         pb.disconnect(client)
     holds = shift <= prm.max_shift_m and turn <= prm.max_turn_rad
-    return ShakeResult(holds, shift, turn, steps * TIME_STEP_S)
+    return ShakeResult(holds, shift, turn, steps * TIME_STEP_S, *squeezed)
 
 
-QUICK_SHAKE = ShakeParams()
-"""A quick check: world gravity, x, y, z and two diagonals (it stops as soon as a grasp fails it, so a failing grasp
-costs little). The planner's check when it found no force closure (``tasks.grasp.hold_check.hold_check``
-otherwise)."""
+def _squeezed_contacts(client: int, hand: int, obj: int, start: tuple[object, object]) -> tuple[Points, Points]:
+    """The hand's contacts on the part and their normals into it, the part's motion since ``start`` (its base
+    position and orientation then) undone."""
+    end_pos, end_quat = pb.getBasePositionAndOrientation(obj, physicsClientId=client)
+    back = Rotation.from_quat(start[1]) * Rotation.from_quat(end_quat).inv()
+    contacts = closing.contacts_of(client, hand, obj)
+    if not len(contacts.positions):
+        return np.zeros((0, 3)), np.zeros((0, 3))
+    positions = back.apply(contacts.positions - np.asarray(end_pos)) + np.asarray(start[0])
+    return np.asarray(positions, dtype=np.float64).reshape(-1, 3), back.apply(contacts.normals_in).reshape(-1, 3)

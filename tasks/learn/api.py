@@ -19,7 +19,6 @@ from schemas.descriptor import Descriptor, Grasp, ObjectRef, Primitive
 from tasks.arrays import Points
 from tasks.code_version import code_version
 from tasks.errors import FitError, GraspError, bounded
-from tasks.grasp import worker_pool
 from tasks.grasp.api import plan_grasp_for_recording
 from tasks.grasp.planner import PlannerParams
 from tasks.learn.boundaries import refine_boundaries, trim_to_motion
@@ -206,8 +205,6 @@ def learn_descriptor(
     Warnings (dropped markers, undefined segments, no grasp) are kept in ``provenance.warnings``; ``seed``, the
     seed ``rng`` was made from, in ``provenance.seed``.
     """
-    if rec.object_model is not None and len(rec.object_model):
-        worker_pool.start()  # the planner's processes import pybullet while the chain is learnt
     result = learn_chain(rec, params, rng)
     warnings = list(result.warnings)
     grasp = plan_recording_grasp(rec, result.chain, rng, warnings)

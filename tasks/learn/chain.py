@@ -25,7 +25,7 @@ from tasks.fit.noise import MAD_TO_SIGMA
 from tasks.fit.rigid import PartMotion, ScrewAxis, part_motion, rss_about_axis, screw_axis
 from tasks.fit.rotation import RotationFit, angles_about, fit_rotation
 from tasks.fit.select import KINDS, Kind, SelectParams, choose_bic, choose_eigen, model_costs
-from tasks.fit.translation import TranslationFit, fit_translation
+from tasks.fit.translation import TranslationFit, fit_translation, travels_agree
 from tasks.learn.params import LearnParams
 from tasks.learn.prepare import MIN_SAMPLES, PreparedRecording, is_orientation_marker
 from tasks.segment.changepoint import MIN_MODEL_SAMPLES
@@ -118,7 +118,8 @@ def fit_span(
         who = bounded([tr.name for tr in moving])
         return SegmentFit("undefined", t0, t1, still_markers=still, note=f"{HAND_ONLY} ({who})")
     group.sort(key=lambda tr: tr.name)
-    pts = [_samples(tr, t0, t1)[1] for tr in group]
+    samples = [_samples(tr, t0, t1) for tr in group]
+    pts = [p for _, p in samples]
     names: tuple[str, ...] = tuple(tr.name for tr in group)
     sel = SelectParams(params.undefined_nats, params.min_rotation_rad)
 
@@ -152,6 +153,8 @@ def fit_span(
     )[0]
     if max(rf.radii, default=0.0) < MIN_RADIUS_SIGMAS * sigma:
         costs[KINDS.index("rotation")] = np.inf
+    if len(group) > 1 and not travels_agree([t for t, _ in samples], [p @ tf.dir for p in pts]):
+        costs[KINDS.index("translation")] = np.inf  # a sliding part moves all its markers alike
     angle = swept_angle(pts, rf)
     if motion is not None:
         costs += evidence * orientation_costs(motion, rf.dir, sigma, params.undefined_nats)
@@ -243,29 +246,57 @@ def _extent(kind: Kind, rf: RotationFit | None, tf: TranslationFit | None) -> fl
 
 
 MERGE_NOISE_SIGMAS = 2.0
-"""A union's fit may exceed the mechanism tolerance by this many times the sensor noise (3-D rms) of its markers."""
+"""A union's fit may exceed the mechanism's own departure from its ideal path by this many times the sensor noise
+(3-D rms) of its markers."""
 PIECE_RMS_FACTOR = 3.0
 """A union's fit may depart from an ideal line or circle at most this many times as far as its pieces' own fits
 do: a wobbling door cut into arcs fits one circle about as well as its arcs; a knob's turn and the door's swing
 after it, each fitted to a fraction of a millimetre, do not fit one circle within centimetres."""
 
 
+def _own_fit(f: SegmentFit) -> RotationFit | TranslationFit | None:
+    """The fit of the kind a segment is (None for still and undefined)."""
+    return f.rotation if f.kind == "rotation" else f.translation if f.kind == "translation" else None
+
+
 def _fit_rms(f: SegmentFit) -> float:
     """RMS residual (m) of a primitive's own fit (0 for other kinds)."""
-    fit = f.rotation if f.kind == "rotation" else f.translation if f.kind == "translation" else None
+    fit = _own_fit(f)
     return fit.rms_m if fit is not None else 0.0
+
+
+def _residual_sigma(parts: list[SegmentFit]) -> float:
+    """Per-axis scatter (m) of the pieces' samples about their own fits: their residual sum of squares over its
+    degrees of freedom (two residual axes per sample, less each fit's parameters: direction 2, axis point 2 or the
+    line's offset 2 per marker, and a circle's radius and height per marker); inf without a fitted piece."""
+    rss = dof = 0.0
+    for f in parts:
+        fit = _own_fit(f)
+        if fit is None:
+            continue
+        m = max(len(f.markers), 1)
+        rss += fit.rss
+        dof += max(2.0 * fit.n - (4.0 + 2.0 * m if f.kind == "rotation" else 2.0 + 2.0 * m), 1.0)
+    return float(np.sqrt(rss / dof)) if dof else float("inf")
 
 
 def merge_tolerance(
     prep: PreparedRecording, union: SegmentFit, parts: list[SegmentFit], mechanism_rms_m: float
 ) -> float:
-    """Largest rms (m) of one primitive's fit over a union of segments: the mechanism's own departure from an ideal
-    line or circle (at most ``mechanism_rms_m``, and at most ``PIECE_RMS_FACTOR`` times the pieces' own), combined
-    with the markers' sensor noise (camera tracks scatter by centimetres)."""
+    """Largest rms (m) of one primitive's fit over a union of segments: ``PIECE_RMS_FACTOR`` times the pieces' own
+    scatter about their fits (their largest rms, or their per-axis residual per degree of freedom as 3-D rms where
+    short pieces absorb their noise), and never more than the mechanism's own departure from an ideal line or
+    circle (``mechanism_rms_m``) combined with the markers' noise (camera tracks scatter by centimetres). The
+    pieces' scatter already holds the sensor noise, so it is not added to it again. The noise is the sensor's
+    from the data, or the pieces' residual scatter where that is less (the high-frequency estimate also counts
+    timing jitter and depth noise along the path, which a fit's residual does not)."""
     by_name = {tr.name: tr for tr in prep.tracks}
-    noise = max((by_name[n].sigma_hf_m for n in union.markers if n in by_name), default=0.0)
-    mechanism = min(mechanism_rms_m, PIECE_RMS_FACTOR * max(_fit_rms(f) for f in parts))
-    return float(np.hypot(mechanism, MERGE_NOISE_SIGMAS * np.sqrt(3.0) * noise))
+    sensor = max((by_name[n].sigma_hf_m for n in union.markers if n in by_name), default=0.0)
+    residual = _residual_sigma(parts)
+    spread = np.sqrt(2.0) * residual if np.isfinite(residual) else 0.0
+    scatter = max(*(_fit_rms(f) for f in parts), spread)
+    ceiling = np.hypot(mechanism_rms_m, MERGE_NOISE_SIGMAS * np.sqrt(3.0) * min(sensor, residual))
+    return float(min(PIECE_RMS_FACTOR * scatter, ceiling))
 
 
 def _coordinate(f: SegmentFit, pts: Points) -> FloatArray:
@@ -550,9 +581,13 @@ def _small(f: SegmentFit, min_motion_m: float, tracks: dict[str, Track]) -> Segm
 
 
 def primitive_fit_json(f: SegmentFit) -> dict[str, Any]:
-    """The ``fit`` block of a primitive: residual, eigenvalues, model scores, axis uncertainty, and the evidence
-    used (marker positions; a rigid body's orientations too)."""
-    out: dict[str, Any] = {"eigenvalues": list(f.eigenvalues), "scores": f.scores}
+    """The ``fit`` block of a primitive: residual, eigenvalues, model scores (nats; the models the motion rules
+    out, such as a translation whose markers travel unequal distances, are listed under ``ruled_out`` instead),
+    axis uncertainty, and the evidence used (marker positions; a rigid body's orientations too)."""
+    scores = {k: v for k, v in f.scores.items() if np.isfinite(v)}
+    out: dict[str, Any] = {"eigenvalues": list(f.eigenvalues), "scores": scores}
+    if ruled_out := sorted(k for k in f.scores if k not in scores):
+        out["ruled_out"] = ruled_out
     out["evidence"] = ["positions", "orientations"] if any(map(is_orientation_marker, f.markers)) else ["positions"]
     if f.kind == "rotation" and f.rotation is not None:
         rf = f.rotation

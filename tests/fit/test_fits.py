@@ -12,7 +12,7 @@ from tasks.fit.moments import prefix_moments, span_residuals
 from tasks.fit.noise import noise_covariance, noise_sigma
 from tasks.fit.rotation import circle_from_points_algebraic, fit_rotation
 from tasks.fit.select import SelectParams, choose_bic, choose_eigen, eigenvalue_ratio, model_costs
-from tasks.fit.translation import fit_translation
+from tasks.fit.translation import fit_translation, travels_agree
 
 
 def _rot(axis: np.ndarray, angle: float) -> np.ndarray:
@@ -160,3 +160,15 @@ def test_rigid_motion_of_input_moves_the_axis_with_it(yaw: float, tilt: float, s
     assert angle_between_axes(moved.dir, r @ base.dir) < 1e-5
     assert point_line_distance(moved.pos, r @ base.pos + t, r @ base.dir) < 1e-6
     assert abs(moved.angle_rad - base.angle_rad) < 1e-6
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_markers_of_a_sliding_part_travel_alike_and_a_turning_parts_do_not(seed: int) -> None:
+    """Two markers sampled at their own jittered times (30 Hz, 2 mm noise) on a part moving 0.1 m: sliding, both
+    travel 0.1 m; turning about an axis with the markers at 40 and 80 mm, one travels twice as far as the other."""
+    rng = np.random.default_rng(seed)
+    times = [np.sort(rng.uniform(0.0, 1.0, 30)) for _ in range(2)]
+    slide = [0.1 * t + rng.normal(0.0, 0.002, len(t)) for t in times]
+    turn = [r / 0.08 * 0.1 * t + rng.normal(0.0, 0.002, len(t)) for r, t in zip((0.04, 0.08), times, strict=True)]
+    assert travels_agree(times, slide)
+    assert not travels_agree(times, turn)

@@ -9,7 +9,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from schemas.descriptor import Grasp
-from tasks.grasp.hold_check import CHECK_LENGTH_S, PRIMITIVE_CHECK_CYCLES, check_length_s, hold_check
+from tasks.grasp.hold_check import CHECK_LENGTH_S, hold_check
 from tasks.grasp.object_model import build_object_model
 from tasks.grasp.shake import shake_test
 from tests.grasp.surface_sampling import sample_box_surface
@@ -32,22 +32,6 @@ def test_gravity_tilts_along_the_palm_x_axis_and_motions_end_where_they_start() 
     length = sum(m.cycles / m.frequency_hz for m in program.motions)
     assert len(gravity) * (0.5 + length) == pytest.approx(CHECK_LENGTH_S)
     assert math.isclose(CHECK_LENGTH_S, 6.0)
-
-
-def test_the_check_on_a_primitive_runs_three_cycles_of_the_same_motions() -> None:
-    palm = Rotation.from_quat(PALM_DOWN).as_quat()
-    short, long = hold_check(palm), hold_check(palm, cycles=PRIMITIVE_CHECK_CYCLES)
-    assert long.gravity == short.gravity
-    for one, three in zip(short.motions, long.motions, strict=True):
-        assert (three.direction, three.amplitude_m, three.frequency_hz) == (
-            one.direction,
-            one.amplitude_m,
-            one.frequency_hz,
-        )
-        assert three.cycles == 3 * one.cycles
-    length = sum(m.cycles / m.frequency_hz for m in long.motions)
-    assert len(long.gravity) * (0.5 + length) == pytest.approx(check_length_s(PRIMITIVE_CHECK_CYCLES))
-    assert math.isclose(check_length_s(PRIMITIVE_CHECK_CYCLES), 15.0)
 
 
 def test_vertical_palm_x_tilts_along_the_palm_y_axis() -> None:
