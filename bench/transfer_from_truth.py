@@ -43,7 +43,8 @@ def whole_sigmas(
     threshold: float,
 ) -> tuple[float, float]:
     """The whole model's position sigma at ``line`` (metres) from the sample ``fit_axes`` used, with the smoothed
-    normals and every pair informing, and with the model's plane normals and weights (``face_normals``)."""
+    normals and every pair informing, and with the model's plane normals, weights and plane check
+    (``face_normals``)."""
     points = pair.source.points
     smoothed = smoothed_normals(points, surface_normals(points, median_spacing(points)))
     model = model_normals(smoothed)
@@ -59,6 +60,7 @@ def whole_sigmas(
             dist_m=threshold,
             line=line,
             plane_weight=weight,
+            model=None if weight is None else (points, model.normals),
         )
         out.append(spread.pos_std_m)
     return out[0], out[1]

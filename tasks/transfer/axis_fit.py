@@ -113,6 +113,7 @@ def fit_axis(
         dist_m=threshold_m,
         line=line,
         plane_weight=whole_points[2],
+        model=(source, model.normals),
     )
     if prim.kind != "rotation" or prim.pos is None:
         return AxisFit(whole, global_spread, local=False)
@@ -146,6 +147,7 @@ def fit_axis(
         line=line,
         free_stretch=False,
         plane_weight=weight,
+        model=(source, model.normals),
         start_pos_std_m=max(threshold_m, global_spread.pos_std_m) if math.isfinite(global_spread.pos_std_m) else None,
     )
     if spread.pairs < MIN_REGION_PAIRS:

@@ -13,7 +13,11 @@ Either tilt, paired with a scan of that face, reads as information along the fac
   face's normal the smoothing could not settle): its plane is no face's, and its pair gives no point-to-plane
   information (weight 0);
 - other normals (curved surfaces: a cap's side, a handle bar) keep their own direction, whose change from point to
-  point is the surface's curvature.
+  point is the surface's curvature;
+- a pair measures its scan point against the plane of a model point some way off along the surface, and the plane
+  stands for the surface only as far as the model's points there lie on it (``plane_scatter``): where the surface
+  curves or breaks within that offset (a spindle 9 mm in radius, sampled every 6 mm, paired 15 mm along), the
+  plane misplaces the surface by as much as they stray from it.
 
 Normals are unit and unsigned; frames are the model's own.
 """
@@ -24,6 +28,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial import cKDTree
+from scipy.stats import chi2
 
 from tasks.arrays import FloatArray, Points
 
@@ -41,6 +47,17 @@ FACE_CONTRAST = 4.0
 curved surface's spread evenly through the direction."""
 CANDIDATES = 256
 """Model normals tried as face directions (every n/256-th)."""
+SCATTER_SPACINGS = 2.0
+"""A pair's plane is checked over at least two model point spacings about its model point (a few neighbours each
+way, enough to see the surface bend; less than a door's or leaf's thickness, so a parallel face behind stays out)."""
+NOISE_QUANTILE = 0.5
+"""A model's own noise is the median of its planes' scatter (most of a box is flat faces, most of a body of
+revolution curves gently over a few spacings)."""
+NOISE_SAMPLE = 1000
+"""Model points the noise is measured on (every n/1000-th)."""
+PLANE_CONFIDENCE = 0.99
+"""A plane holds where its scatter is within what the model's noise gives at 99 % (chi-square over the points
+that test it): a flat face's planes nearly all pass, a surface bending off the plane by more than the noise fails."""
 
 
 @dataclass(frozen=True)
@@ -97,3 +114,39 @@ def model_normals(normals: Points) -> ModelNormals:
     out[snapped] = directions[k[snapped]] * np.sign(best[snapped])[:, None]
     weight[tilted] = 0.0
     return ModelNormals(out, weight, directions)
+
+
+def plane_scatter(
+    points: Points, normals: Points, tree: cKDTree, at: np.ndarray, radius_m: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """(m,) RMS distance (metres) of the model ``points`` ((n, 3) metres, indexed by ``tree``) within
+    ``radius_m[i]`` of model point ``at[i]`` whose normals face its own within ``BORDER_DEG`` (those a scan point
+    paired with its plane may lie on) from their best plane along its normal (``normals``): about the model's
+    noise on a flat face, the sag of the surface where it curves within the radius, the step where it breaks, the
+    tilt where the normal is not the surface's; and how many points that is."""
+    cos = math.cos(math.radians(BORDER_DEG))
+    out, count = np.zeros(len(at)), np.zeros(len(at))
+    for i, (k, found) in enumerate(zip(at, tree.query_ball_point(points[at], radius_m), strict=True)):
+        near = np.asarray(found, dtype=np.intp)
+        alike = near[np.abs(normals[near] @ normals[k]) >= cos]
+        out[i] = float(np.std(points[alike] @ normals[k])) if len(alike) else 0.0
+        count[i] = len(alike)
+    return out, count
+
+
+def plane_holds(points: Points, normals: Points, tree: cKDTree, at: np.ndarray, offset_m: FloatArray) -> np.ndarray:
+    """(m,) bool: the plane of model point ``at[i]`` stands for the model over ``offset_m[i]`` (metres, at least
+    ``SCATTER_SPACINGS`` model spacings) about it: the model's points there that face the same way
+    (``plane_scatter``) stray from it no more than the model's own noise explains (``PLANE_CONFIDENCE``; the noise:
+    the ``NOISE_QUANTILE`` of its planes' scatter). ``points`` (n, 3) metres, ``normals`` (n, 3)
+    unit, indexed by ``tree``."""
+    sample = np.arange(0, len(points), max(1, len(points) // NOISE_SAMPLE), dtype=np.intp)
+    spacing = float(np.median(tree.query(points[sample], k=2)[0][:, 1]))
+    least = np.full(len(sample), SCATTER_SPACINGS * spacing)
+    noise, _ = plane_scatter(points, normals, tree, sample, least)
+    noise_var = float(np.percentile(noise, 100.0 * NOISE_QUANTILE)) ** 2
+    scatter, count = plane_scatter(points, normals, tree, at, np.maximum(offset_m, SCATTER_SPACINGS * spacing))
+    dof = np.maximum(count - 1.0, 1.0)
+    limit = chi2.ppf(PLANE_CONFIDENCE, dof) / dof
+    out: np.ndarray = scatter**2 <= limit * noise_var
+    return out

@@ -27,6 +27,7 @@ import open3d as o3d
 from scipy.spatial import cKDTree
 
 from tasks.arrays import FloatArray, Points, Vector3
+from tasks.transfer.face_normals import plane_holds
 from tasks.transfer.similarity import Similarity
 
 MAX_STRETCH = 1.5
@@ -318,6 +319,7 @@ def line_spread(
     line: tuple[Vector3, Vector3],
     free_stretch: bool = True,
     plane_weight: FloatArray | None = None,
+    model: tuple[Points, Points] | None = None,
     start_pos_std_m: float | None = None,
 ) -> FitSpread:
     """The covariance of ``fitted``'s unknowns carried to the line (point, unit direction; source frame): the
@@ -330,7 +332,9 @@ def line_spread(
     ``MAX_STRETCH``. The information comes from the carried source normals; a direction no pair
     constrains (a hinge on a face the scan lacks) keeps the prior's sigma, not none. ``plane_weight``: (n,) per
     source point, 0 where its normal states no plane (a border between faces, ``face_normals``): such pairs
-    inform nothing."""
+    inform nothing. ``model``: the whole model's points and normals (source frame; ``source`` is among them):
+    a pair informs only where the model about it lies on its plane, over the pair's offset along it, within the
+    model's own noise (``face_normals.plane_holds``)."""
     tree = cKDTree(target)
     moved, turned, idx, ok = _matched(
         fitted,
@@ -346,6 +350,10 @@ def line_spread(
         return FitSpread(float("inf"), float("inf"), float("inf"), int(ok.sum()))
     if plane_weight is not None:
         ok &= plane_weight > 0.0
+        if int(ok.sum()) < 12:
+            return FitSpread(float("inf"), float("inf"), float("inf"), int(ok.sum()))
+    if model is not None:
+        ok[ok] &= _planes_hold(fitted, model, source[ok], p=moved[ok], q=target[idx[ok]], n=turned[ok])
         if int(ok.sum()) < 12:
             return FitSpread(float("inf"), float("inf"), float("inf"), int(ok.sum()))
     p, q, n = moved[ok], target[idx[ok]], turned[ok]
@@ -382,6 +390,21 @@ def line_spread(
         rms,
         int(ok.sum()),
     )
+
+
+def _planes_hold(
+    fitted: Stretched, model: tuple[Points, Points], source: Points, *, p: Points, q: Points, n: Points
+) -> np.ndarray:
+    """(m,) bool: each pair's model plane holds over the pair's offset along it (``face_normals.plane_holds``;
+    ``model``: the whole model's points and normals, source frame). ``source``: the pairs' model points (source
+    frame); ``p``, ``q``, ``n``: moved, paired scan points and carried normals (target frame)."""
+    points, normals = model
+    tree = cKDTree(points)
+    _, at = tree.query(source)
+    gap = q - p
+    lateral = np.linalg.norm(gap - n * np.einsum("ij,ij->i", gap, n)[:, None], axis=1)
+    size = fitted.similarity.scale * float(np.prod(fitted.factors)) ** (1.0 / 3.0)
+    return plane_holds(points, normals, tree, np.asarray(at, dtype=np.intp), lateral / size)
 
 
 def local_similarity(stretched: Stretched, pos: Vector3, direction: Vector3) -> Similarity:

@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from tasks.transfer.clouds import median_spacing
-from tasks.transfer.face_normals import model_normals
+from tasks.transfer.face_normals import model_normals, plane_holds
 from tasks.transfer.registration import surface_normals
 from tasks.transfer.similarity import Similarity
 from tasks.transfer.stretch import Stretched, line_spread, smoothed_normals
@@ -84,3 +85,31 @@ def test_a_stretch_leaves_an_unscanned_height_open() -> None:
         plane_weight=model.plane_weight,
     )  # fmt: skip
     assert spread.pos_std_m > 0.05  # the height stretch moves a spindle 1 m below the top edge by decimetres
+
+
+PLATE = np.array([0.4, 0.4, 0.04])
+
+
+def test_a_plane_holds_on_a_face_and_on_a_gentle_curve_not_on_a_thin_post() -> None:
+    for seed in range(3):
+        rng = np.random.default_rng(20 + seed)
+        # a plate with a post 9 mm in radius on its front, sampled every ~6 mm as a door leaf's model is
+        parts = [
+            *shapes.box(PLATE, np.zeros(3)),
+            shapes.cylinder_side(0.009, 0.02, 0.07),
+            shapes.disk(0.009, 0.07, True),
+        ]
+        points, _ = shapes.sample_parts(parts, 2300, rng)
+        points = points + rng.normal(scale=5e-4, size=points.shape)
+        model = model_normals(smoothed_normals(points, surface_normals(points, median_spacing(points))))
+        holds = plane_holds(points, model.normals, cKDTree(points), np.arange(len(points)), np.zeros(len(points)))
+        radial = np.hypot(points[:, 0], points[:, 1])
+        post = (radial < 0.012) & (points[:, 2] > 0.025) & (points[:, 2] < 0.065)
+        face = (points[:, 2] > 0.019) & (radial > 0.05) & (np.abs(points[:, :2]).max(axis=1) < 0.17)
+        assert holds[face].mean() > 0.9
+        assert holds[post].mean() < 0.3  # its normals, smoothed over a few spacings, state no plane of it
+        # a bottle's side, 40 mm in radius and sampled every 1.5 mm: its planes hold
+        side, _ = shapes.sample_parts([shapes.cylinder_side(0.04, 0.0, 0.2)], 6000, rng)
+        side = side + rng.normal(scale=5e-4, size=side.shape)
+        normals = model_normals(smoothed_normals(side, surface_normals(side, median_spacing(side)))).normals
+        assert plane_holds(side, normals, cKDTree(side), np.arange(len(side)), np.zeros(len(side))).mean() > 0.9
