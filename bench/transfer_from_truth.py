@@ -5,10 +5,11 @@ then the axis neighbourhood's fit) is started from the similarity that maps the 
 novel one (exact for pairs stretched by one factor; the factors' geometric mean for the others). What it prints
 is how far the fits move the axis from the truth when the global registration has nothing to get wrong: the
 whole model's placement and the placed one (mm, deg), the reported one-sigma, and the stretch factors found
-against the true ones (object axes x, y, z). For hinged boxes (cabinet, microwave) it also counts the scan's
-points on the door's edge face through the hinge (object frame: within 4 mm of the hinge's side plane, 4-30 mm
-behind the door's front) and how many of their estimated normals lie within ``stretch.NORMAL_COS`` of that face's
-normal: only those pairs count in the stretched fit.
+against the true ones (object axes x, y, z), and the whole model's own sigma at the axis, with the model's plane
+normals and weights (``face_normals``) and with the smoothed normals, every pair informing. For hinged boxes
+(cabinet, microwave) it also counts the scan's points on the door's edge face through the hinge (object frame:
+within 4 mm of the hinge's side plane, 4-30 mm behind the door's front) and how many of their estimated normals lie
+within ``stretch.NORMAL_COS`` of that face's normal: only those pairs count in the stretched fit.
 
     OMP_NUM_THREADS=1 PYTHONPATH=. .venv/bin/python bench/transfer_from_truth.py [--family F] [--seeds 0 1 2]
 """
@@ -27,9 +28,43 @@ from bench.cases.transfer_pairs import FAMILIES, TransferPair, make_pair
 from bench.transfer import FAMILY_DEV_SEEDS, family_descriptor
 from tasks.transfer.axis_fit import fit_axes
 from tasks.transfer.carry import grip_points
-from tasks.transfer.registration import RegistrationParams, prepare_target
+from tasks.transfer.clouds import median_spacing
+from tasks.transfer.face_normals import model_normals
+from tasks.transfer.registration import RegistrationParams, prepare_target, surface_normals
 from tasks.transfer.similarity import Similarity, angle_between_deg, point_line_distance
-from tasks.transfer.stretch import NORMAL_COS
+from tasks.transfer.stretch import NORMAL_COS, STRETCH_POINTS, Stretched, line_spread, smoothed_normals
+
+
+def whole_sigmas(
+    pair: TransferPair,
+    whole: Stretched,
+    line: tuple[np.ndarray, np.ndarray],
+    fine_normals: np.ndarray,
+    threshold: float,
+) -> tuple[float, float]:
+    """The whole model's position sigma at ``line`` (metres) from the sample ``fit_axes`` used, with the smoothed
+    normals and every pair informing, and with the model's plane normals, weights and plane check
+    (``face_normals``)."""
+    points = pair.source.points
+    smoothed = smoothed_normals(points, surface_normals(points, median_spacing(points)))
+    model = model_normals(smoothed)
+    pick = np.random.default_rng(pair.seed).permutation(len(points))[:STRETCH_POINTS]  # as fit_axes draws it
+    out = []
+    for normals, weight in ((smoothed, None), (model.normals, model.plane_weight[pick])):
+        spread = line_spread(
+            whole,
+            points[pick],
+            normals[pick],
+            target=pair.target,
+            target_normals=fine_normals,
+            dist_m=threshold,
+            line=line,
+            plane_weight=weight,
+            model=None if weight is None else (points, model.normals),
+        )
+        out.append(spread.pos_std_m)
+    return out[0], out[1]
+
 
 EDGE_FACE_M = 0.004
 """A scan point lies on the hinge side's plane when within 4 mm of it (object frame, before the stretch: a
@@ -82,11 +117,13 @@ def run(family: str, seed: int) -> None:
         edge = f" | edge face {seen:3d} pts, normals within 30 deg {agreeing:3d}"
     whole_mm = point_line_distance(pair.target_axis_pos, whole_pos, whole_dir) * 1e3
     placed_mm = point_line_distance(pair.target_axis_pos, placed_pos, placed_dir) * 1e3
+    sig_smoothed, sig_planes = whole_sigmas(pair, fits.whole, (pos, direction), fine.normals, fine.threshold)
     found = " ".join(f"{f:5.3f}" for f in factors)
     true = " ".join(f"{f:5.3f}" for f in pair.stretch / scale)
     print(
         f"{family:10} {seed:5d} | whole {whole_mm:6.2f} mm "
-        f"{angle_between_deg(whole_dir, pair.target_axis_dir):5.2f} deg | placed {placed_mm:6.2f} mm "
+        f"{angle_between_deg(whole_dir, pair.target_axis_dir):5.2f} deg sigma {sig_planes * 1e3:5.2f} mm "
+        f"(smoothed {sig_smoothed * 1e3:5.2f}) | placed {placed_mm:6.2f} mm "
         f"{angle_between_deg(placed_dir, pair.target_axis_dir):5.2f} deg "
         f"({'neighbourhood' if fit.local else 'whole model':13}) | sigma {fit.spread.pos_std_m * 1e3:5.2f} mm | "
         f"factors {found} true {true}{edge}",

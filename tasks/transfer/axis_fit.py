@@ -5,9 +5,11 @@ hinge edge, the lever and rose) pin the axis itself, once the model's faces that
 rigid point-to-plane fit of that neighbourhood alone, started from the stretched fit. The neighbourhood is used
 only when its normals pin the axis across itself (their scatter across the axis has both eigenvalues at least
 ``MIN_LATERAL``: two faces meeting at a hinge, a lever's sides), and when its fit pairs enough points; else the
-whole model's fit places the axis. Each placement comes with its spread (``stretch.line_spread``), widened to
-cover how far the neighbourhood moved the axis from the whole model's placement when the two fits contradict each
-other (``AGREEMENT_SIGMAS``). Lengths in metres.
+whole model's fit places the axis. Each placement comes with its spread (``stretch.line_spread``, from the
+model's plane normals: ``face_normals``), widened to cover how far the neighbourhood moved the axis from the whole
+model's placement when the two fits contradict each other (``AGREEMENT_SIGMAS``). The neighbourhood's fit starts
+from the whole model's, so before its own pairs it knows the axis as well as the whole model placed it (its
+translation prior is the whole model's sigma there). Lengths in metres.
 """
 
 from __future__ import annotations
@@ -18,8 +20,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from schemas.descriptor import Primitive
-from tasks.arrays import Points, Vector3
+from tasks.arrays import FloatArray, Points, Vector3
 from tasks.transfer.clouds import median_spacing
+from tasks.transfer.face_normals import ModelNormals, model_normals
 from tasks.transfer.local_refine import LocalParams, axis_region, region_size
 from tasks.transfer.registration import surface_normals
 from tasks.transfer.similarity import Similarity, angle_between_deg, point_line_distance
@@ -83,25 +86,34 @@ def lateral_pinning(normals: Points, direction: np.ndarray) -> float:
 def fit_axis(
     prim: Primitive,
     source: Points,
-    source_normals: Points,
+    model: ModelNormals,
     target: Points,
     target_normals: Points,
     *,
     whole: Stretched,
-    whole_points: tuple[Points, Points],
+    whole_points: tuple[Points, Points, FloatArray],
     grip: Points,
     radius_m: float,
     threshold_m: float,
 ) -> AxisFit:
     """The fit carrying ``prim`` (source frame) onto ``target``: its neighbourhood's rigid fit from ``whole``
-    when that pins it, else ``whole``. ``whole_points``: the points and normals ``whole`` was fitted with;
+    when that pins it, else ``whole``. ``model``: the source's normals and plane weights (``face_normals``);
+    ``whole_points``: the points, normals and plane weights ``whole`` was fitted with;
     ``grip``: (g, 3) grasped-part points, whose ball joins the neighbourhood of an axis within ``radius_m``."""
     direction = np.asarray(prim.dir, dtype=np.float64)
     direction = direction / np.linalg.norm(direction)
     pos = np.asarray(prim.pos, dtype=np.float64) if prim.pos is not None else whole.centre
     line = (pos, direction)
     global_spread = line_spread(
-        whole, *whole_points, target=target, target_normals=target_normals, dist_m=threshold_m, line=line
+        whole,
+        whole_points[0],
+        whole_points[1],
+        target=target,
+        target_normals=target_normals,
+        dist_m=threshold_m,
+        line=line,
+        plane_weight=whole_points[2],
+        model=(source, model.normals),
     )
     if prim.kind != "rotation" or prim.pos is None:
         return AxisFit(whole, global_spread, local=False)
@@ -109,12 +121,22 @@ def fit_axis(
     for g in grip:
         if point_line_distance(g, pos, direction) <= radius_m:
             mask |= ((source - g) ** 2).sum(axis=1) <= radius_m**2
-    if int(mask.sum()) < MIN_REGION_PAIRS or lateral_pinning(source_normals[mask], direction) < MIN_LATERAL:
+    informs = mask & (model.plane_weight > 0.0)
+    if int(mask.sum()) < MIN_REGION_PAIRS or lateral_pinning(model.normals[informs], direction) < MIN_LATERAL:
         return AxisFit(whole, global_spread, local=False)
-    region, normals = source[mask], source_normals[mask]
+    region, normals, weight = source[mask], model.normals[mask], model.plane_weight[mask]
     fitted = whole
     for dist in (2.0 * threshold_m, threshold_m):
-        fitted = stretch_icp(region, target, target_normals, fitted, dist, source_normals=normals, free_stretch=False)
+        fitted = stretch_icp(
+            region,
+            target,
+            target_normals,
+            fitted,
+            dist,
+            source_normals=normals,
+            free_stretch=False,
+            final_m=threshold_m,
+        )
     spread = line_spread(
         fitted,
         region,
@@ -124,6 +146,9 @@ def fit_axis(
         dist_m=threshold_m,
         line=line,
         free_stretch=False,
+        plane_weight=weight,
+        model=(source, model.normals),
+        start_pos_std_m=max(threshold_m, global_spread.pos_std_m) if math.isfinite(global_spread.pos_std_m) else None,
     )
     if spread.pairs < MIN_REGION_PAIRS:
         return AxisFit(whole, global_spread, local=False)
@@ -169,17 +194,17 @@ def fit_axes(
     """The stretched fit of ``source`` onto ``target`` from the registration's ``best``, then every primitive's
     own fit (``fit_axis``); ``threshold_m`` and ``spacing_m``: the registration's final correspondence threshold
     and the target's median point spacing."""
-    source_normals = smoothed_normals(source, surface_normals(source, median_spacing(source)))
+    model = model_normals(smoothed_normals(source, surface_normals(source, median_spacing(source))))
     target_normals = surface_normals(target, spacing_m)
     pick = rng.permutation(source.shape[0])[:STRETCH_POINTS]
-    sample = (source[pick], source_normals[pick])
+    sample = (source[pick], model.normals[pick], model.plane_weight[pick])
     whole = fit_stretch(
-        sample,
+        sample[:2],
         target,
         target_normals,
         best,
         threshold_m,
-        axes=box_axes(source, source_normals),
+        axes=box_axes(source, model.normals),
         centre=source.mean(axis=0),
     )
     _, radius = region_size(source, LocalParams())
@@ -187,7 +212,7 @@ def fit_axes(
         fit_axis(
             prim,
             source,
-            source_normals,
+            model,
             target,
             target_normals,
             whole=whole,

@@ -27,6 +27,7 @@ import open3d as o3d
 from scipy.spatial import cKDTree
 
 from tasks.arrays import FloatArray, Points, Vector3
+from tasks.transfer.face_normals import plane_holds
 from tasks.transfer.similarity import Similarity
 
 MAX_STRETCH = 1.5
@@ -41,10 +42,11 @@ CORRELATED_POINTS = 4.0
 its nearest neighbours err together): the residuals count as one independent observation per 2 x 2 pairs."""
 NEAREST_SLACK = 0.25
 NEAREST_K = 8
-"""A pair counts only when its source point's plane is, within this fraction of the correspondence distance, the
-nearest of the planes of the ``NEAREST_K`` source points nearest its target point: the back face of a thin part
-(a door leaf, a drawer front) faces the same way, unsigned, as the front one the scan shows, and would pull it
-in."""
+"""A pair counts only when its source point's plane is, within this fraction of the final correspondence distance,
+the nearest of the planes of the ``NEAREST_K`` source points nearest its target point: the back face of a thin
+part (a door leaf, a drawer front) faces the same way, unsigned, as the front one the scan shows, and would pull
+it in. The slack is the final distance's even while the early, wider stages search (a fraction of 4 times it
+exceeds a 30-40 mm leaf's thickness, and a leaf's back face paired with its front squeezes the leaf flat)."""
 POINT_WEIGHT = 0.3
 """Weight of the point-to-point components beside the point-to-plane residual."""
 RIDGE = 1e-2
@@ -161,10 +163,18 @@ def _small_rotation(w: Vector3) -> FloatArray:
 
 
 def _linear_system(
-    current: Stretched, p: Points, q: Points, n: Points, *, along: FloatArray, huber: float
+    current: Stretched,
+    p: Points,
+    q: Points,
+    n: Points,
+    *,
+    along: FloatArray,
+    huber: float,
+    plane_weight: FloatArray | None = None,
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Rows, residuals and robust weights of one linearised step: each pair's point-to-plane residual (``n``:
-    the carried source normals, unit, target frame) and, at
+    the carried source normals, unit, target frame; times ``plane_weight``, 0 where the model's normal states no
+    plane: ``face_normals``) and, at
     ``POINT_WEIGHT``, its three point-to-point components (which see a face's edge, where the planes do not).
     Unknowns: small rotation about the pairs' centroid (3), translation (3), relative factor changes (3)."""
     centre = p.mean(axis=0)
@@ -174,6 +184,8 @@ def _linear_system(
     d = p - centre
     plane = np.hstack([np.cross(d, n), n, d_stretch * (n @ turned_axes)])
     plane_res = np.einsum("ij,ij->i", n, q - p)
+    if plane_weight is not None:
+        plane, plane_res = plane * plane_weight[:, None], plane_res * plane_weight
     rows, res = [plane], [plane_res]
     for j in range(3):
         e = np.zeros(3)
@@ -195,10 +207,18 @@ def carried_normals(current: Stretched, source_normals: Points) -> Points:
 
 
 def _matched(
-    current: Stretched, source: Points, source_normals: Points, *, target_normals: Points, tree: cKDTree, dist_m: float
+    current: Stretched,
+    source: Points,
+    source_normals: Points,
+    *,
+    target_normals: Points,
+    tree: cKDTree,
+    dist_m: float,
+    slack_m: float,
 ) -> tuple[Points, Points, np.ndarray, np.ndarray]:
     """The moved source and its carried normals, the indices of the target points paired with them, and which
-    pairs count (within ``dist_m``, normals agreeing within ``NORMAL_COS``, nearest surface: ``NEAREST_SLACK``)."""
+    pairs count (within ``dist_m``, normals agreeing within ``NORMAL_COS``, the nearest surface within
+    ``slack_m``: ``NEAREST_SLACK``)."""
     moved = current.apply_points(source)
     dist, idx = tree.query(moved, distance_upper_bound=dist_m)
     ok = np.isfinite(dist)
@@ -212,7 +232,7 @@ def _matched(
     near = near.reshape(len(q), -1)
     gap = np.abs(np.einsum("ikj,ikj->ik", turned[near], q[:, None, :] - moved[near]))  # to each neighbour's plane
     own = np.abs(np.einsum("ij,ij->i", turned[ok], q - moved[ok]))
-    ok[ok] &= own <= gap.min(axis=1) + NEAREST_SLACK * dist_m
+    ok[ok] &= own <= gap.min(axis=1) + slack_m
     return moved, turned, idx, ok
 
 
@@ -226,20 +246,30 @@ def stretch_icp(
     source_normals: Points,
     iterations: int = 30,
     free_stretch: bool = True,
+    final_m: float | None = None,
 ) -> Stretched:
     """Refine ``start`` by point-to-plane ICP over rotation, translation and (``free_stretch``) the three
     stretch factors; source (n, 3) and target (m, 3) metres, ``source_normals`` (n, 3) and ``target_normals``
     (m, 3) unit (unsigned). The residuals lie along the carried source normals; pairs whose normals disagree
-    are left out: a face the scan missed would pull the model's edges in. ``start`` when too few pairs match."""
+    are left out: a face the scan missed would pull the model's edges in. ``final_m``: the last stage's
+    correspondence distance, which sets the nearest-surface slack (``NEAREST_SLACK``; default ``max_distance_m``).
+    ``start`` when too few pairs match."""
     tree = cKDTree(target)
     current = start
     huber = max_distance_m / 3.0
     limit = math.log(MAX_STRETCH)
     along = (source - start.centre) @ start.axes  # (n, 3): coordinates along the box axes
     unknowns = 9 if free_stretch else 6
+    slack = NEAREST_SLACK * (max_distance_m if final_m is None else final_m)
     for _ in range(iterations):
         moved, turned, idx, ok = _matched(
-            current, source, source_normals, target_normals=target_normals, tree=tree, dist_m=max_distance_m
+            current,
+            source,
+            source_normals,
+            target_normals=target_normals,
+            tree=tree,
+            dist_m=max_distance_m,
+            slack_m=slack,
         )
         if int(ok.sum()) < 12:
             return current
@@ -288,30 +318,57 @@ def line_spread(
     dist_m: float,
     line: tuple[Vector3, Vector3],
     free_stretch: bool = True,
+    plane_weight: FloatArray | None = None,
+    model: tuple[Points, Points] | None = None,
+    start_pos_std_m: float | None = None,
 ) -> FitSpread:
     """The covariance of ``fitted``'s unknowns carried to the line (point, unit direction; source frame): the
     inverse of the pairs' information over the residual variance (``CORRELATED_POINTS`` pairs counting as one)
-    plus what the fit knows before the pairs, that it moved the model by no more than the correspondence
-    distance ``dist_m`` (translations within it, turns moving the pairs by at most it, factors within
-    ``MAX_STRETCH``). The information comes from the carried source normals; a direction no pair constrains (a
-    hinge on a face the scan lacks) keeps the prior's sigma, not none."""
+    plus what the fit knows before the pairs: where its start put the model (a translation within
+    ``start_pos_std_m``; by default the correspondence distance ``dist_m``, and with a free stretch what a stretch
+    up to ``MAX_STRETCH`` moves the pairs, their RMS reach times log 1.5: the start is a similarity, and where the
+    scan shows no face a similar object's may lie that far off, as a door leaf's unscanned underside leaves its
+    height, and its lever's, unmeasured), turns moving the pairs by at most ``dist_m``, factors within
+    ``MAX_STRETCH``. The information comes from the carried source normals; a direction no pair
+    constrains (a hinge on a face the scan lacks) keeps the prior's sigma, not none. ``plane_weight``: (n,) per
+    source point, 0 where its normal states no plane (a border between faces, ``face_normals``): such pairs
+    inform nothing. ``model``: the whole model's points and normals (source frame; ``source`` is among them):
+    a pair informs only where the model about it lies on its plane, over the pair's offset along it, within the
+    model's own noise (``face_normals.plane_holds``)."""
     tree = cKDTree(target)
     moved, turned, idx, ok = _matched(
-        fitted, source, source_normals, target_normals=target_normals, tree=tree, dist_m=dist_m
+        fitted,
+        source,
+        source_normals,
+        target_normals=target_normals,
+        tree=tree,
+        dist_m=dist_m,
+        slack_m=NEAREST_SLACK * dist_m,
     )
     unknowns = 9 if free_stretch else 6
     if int(ok.sum()) < 12:
         return FitSpread(float("inf"), float("inf"), float("inf"), int(ok.sum()))
+    if plane_weight is not None:
+        ok &= plane_weight > 0.0
+        if int(ok.sum()) < 12:
+            return FitSpread(float("inf"), float("inf"), float("inf"), int(ok.sum()))
+    if model is not None:
+        ok[ok] &= _planes_hold(fitted, model, source[ok], p=moved[ok], q=target[idx[ok]], n=turned[ok])
+        if int(ok.sum()) < 12:
+            return FitSpread(float("inf"), float("inf"), float("inf"), int(ok.sum()))
     p, q, n = moved[ok], target[idx[ok]], turned[ok]
     along = (source[ok] - fitted.centre) @ fitted.axes
-    a, residual, w = _linear_system(fitted, p, q, n, along=along, huber=dist_m / 3.0)
+    weight = None if plane_weight is None else plane_weight[ok]
+    a, residual, w = _linear_system(fitted, p, q, n, along=along, huber=dist_m / 3.0, plane_weight=weight)
     plane_rows = len(p)
     rms = float(np.sqrt(np.mean(residual[:plane_rows] ** 2)))
     a = a[:plane_rows, :unknowns]  # the planes' information (the point terms see the sampling, not the surface)
     info = (a * w[:plane_rows, None]).T @ a / CORRELATED_POINTS / max(rms, 1e-9) ** 2
     centre = p.mean(axis=0)
     reach = float(np.sqrt(np.mean(((p - centre) ** 2).sum(axis=1))))
-    prior = np.full(unknowns, 1.0 / dist_m**2)  # translations
+    if start_pos_std_m is None:
+        start_pos_std_m = max(dist_m, reach * math.log(MAX_STRETCH)) if free_stretch else dist_m
+    prior = np.full(unknowns, 1.0 / start_pos_std_m**2)  # translations
     prior[:3] = (reach / dist_m) ** 2  # rotations: a turn moving the pairs by dist_m
     prior[6:] = 1.0 / math.log(MAX_STRETCH) ** 2
     cov = np.linalg.inv(info + np.diag(prior))
@@ -333,6 +390,21 @@ def line_spread(
         rms,
         int(ok.sum()),
     )
+
+
+def _planes_hold(
+    fitted: Stretched, model: tuple[Points, Points], source: Points, *, p: Points, q: Points, n: Points
+) -> np.ndarray:
+    """(m,) bool: each pair's model plane holds over the pair's offset along it (``face_normals.plane_holds``;
+    ``model``: the whole model's points and normals, source frame). ``source``: the pairs' model points (source
+    frame); ``p``, ``q``, ``n``: moved, paired scan points and carried normals (target frame)."""
+    points, normals = model
+    tree = cKDTree(points)
+    _, at = tree.query(source)
+    gap = q - p
+    lateral = np.linalg.norm(gap - n * np.einsum("ij,ij->i", gap, n)[:, None], axis=1)
+    size = fitted.similarity.scale * float(np.prod(fitted.factors)) ** (1.0 / 3.0)
+    return plane_holds(points, normals, tree, np.asarray(at, dtype=np.intp), lateral / size)
 
 
 def local_similarity(stretched: Stretched, pos: Vector3, direction: Vector3) -> Similarity:
@@ -370,5 +442,13 @@ def fit_stretch(
     shrinks from 4 to 1 ``threshold_m``)."""
     current = Stretched(best, axes, np.ones(3), centre)
     for dist in (4.0 * threshold_m, 2.0 * threshold_m, threshold_m):
-        current = stretch_icp(sample[0], target, target_normals, current, dist, source_normals=sample[1])
+        current = stretch_icp(
+            sample[0],
+            target,
+            target_normals,
+            current,
+            dist,
+            source_normals=sample[1],
+            final_m=threshold_m,
+        )
     return current

@@ -9,6 +9,7 @@ import pytest
 from schemas.descriptor import Primitive
 from tasks.transfer.axis_fit import AGREEMENT_SIGMAS, AxisFit, fit_axis
 from tasks.transfer.clouds import median_spacing
+from tasks.transfer.face_normals import model_normals
 from tasks.transfer.registration import surface_normals
 from tasks.transfer.similarity import Similarity
 from tasks.transfer.stretch import Stretched, box_axes, line_spread, smoothed_normals
@@ -112,7 +113,7 @@ def _hinge_fit(rng: np.random.Generator, whole_shift_m: float) -> AxisFit:
     box's front and hinge side (1 mm noise)."""
     size = np.array([0.45, 0.35, 0.3])
     source, _ = shapes.sample_parts(shapes.box(size, np.zeros(3)), 6000, rng)
-    source_n = smoothed_normals(source, surface_normals(source, median_spacing(source)))
+    model = model_normals(smoothed_normals(source, surface_normals(source, median_spacing(source))))
     target, _ = shapes.sample_parts([shapes.box(size, np.zeros(3))[k] for k in (0, 2)], 4000, rng)
     target = target + rng.normal(scale=1e-3, size=target.shape)
     target_n = surface_normals(target, median_spacing(target))
@@ -120,8 +121,9 @@ def _hinge_fit(rng: np.random.Generator, whole_shift_m: float) -> AxisFit:
                       np.zeros(3))  # fmt: skip
     prim = Primitive("rotation", (-0.225, -0.175, 0.0), (0.0, 0.0, 1.0), 1.0)
     return fit_axis(
-        prim, source, source_n, target, target_n, whole=whole, whole_points=(source, source_n), grip=np.empty((0, 3)),
-        radius_m=0.08, threshold_m=0.015,
+        prim, source, model, target, target_n, whole=whole,
+        whole_points=(source, model.normals, model.plane_weight), grip=np.empty((0, 3)), radius_m=0.08,
+        threshold_m=0.015,
     )  # fmt: skip
 
 

@@ -9,8 +9,19 @@ import pytest
 
 from schemas.descriptor import Primitive
 from tasks.transfer.axis_fit import AxisFit, lateral_pinning
+from tasks.transfer.clouds import median_spacing
+from tasks.transfer.registration import surface_normals
 from tasks.transfer.similarity import Similarity, angle_between_deg, point_line_distance
-from tasks.transfer.stretch import MAX_STRETCH, Stretched, box_axes, line_spread, local_similarity, stretch_icp
+from tasks.transfer.stretch import (
+    MAX_STRETCH,
+    Stretched,
+    box_axes,
+    fit_stretch,
+    line_spread,
+    local_similarity,
+    smoothed_normals,
+    stretch_icp,
+)
 from tasks.transfer.uncertainty import axis_uncertainty, with_uncertainty
 from tests.transfer import shapes
 
@@ -99,3 +110,24 @@ def test_stretch_icp_without_facing_pairs_keeps_its_start() -> None:
     start = Stretched(Similarity.identity(), np.eye(3), np.ones(3), np.zeros(3))
     fitted = stretch_icp(source, target, target_n, start, 1.0, source_normals=source_n)
     assert fitted is start
+
+
+def test_a_thin_slab_seen_from_the_front_keeps_its_thickness() -> None:
+    """A door leaf's back face, unscanned, faces the same way as its front: at the wide early correspondence
+    distances it must not be paired with the front (which would squeeze the leaf flat)."""
+    rng = np.random.default_rng(4)
+    size = np.array([0.8, 0.04, 2.0])
+    model, _ = shapes.sample_parts(shapes.box(size, np.zeros(3)), 20000, rng)
+    model_n = smoothed_normals(model, surface_normals(model, median_spacing(model)))  # as the pipeline estimates
+    pick = rng.permutation(len(model))[:3000]
+    source, source_n = model[pick], model_n[pick]
+    target, target_n = shapes.sample_parts(shapes.box(size, np.zeros(3)), 20000, rng)
+    seen = (target_n[:, 1] < -0.5) | (target_n[:, 0] > 0.5) | (target_n[:, 2] > 0.5)  # front, one side, top
+    target, target_n = target[seen] + rng.normal(scale=1.5e-3, size=(int(seen.sum()), 3)), target_n[seen]
+    truth = Similarity(1.0, shapes.random_rotation(rng), rng.uniform(-0.3, 0.3, 3))
+    target, target_n = truth.apply_points(target), target_n @ truth.rotation.T
+    fitted = fit_stretch(
+        (source, source_n), target, target_n, truth, 0.025, axes=box_axes(source), centre=source.mean(axis=0)
+    )
+    thickness = fitted.factors[np.abs(fitted.axes[1]).argmax()]
+    assert thickness > 0.9
