@@ -148,15 +148,27 @@ def refine_boundaries(prep: PreparedRecording, fits: list[SegmentFit], params: L
 def _widened(prep: PreparedRecording, f: SegmentFit, start: float, end: float, params: LearnParams) -> SegmentFit:
     """Primitive ``f`` over [start, end] (s). When its span grew, the part's path is classified again from the last
     rest sample before the motion to the first after it (across an occlusion gap, those are all that is seen of
-    the motion's end): a path that this shows to be of the other kind of motion gets that kind's fit; otherwise
+    the motion's end): a path that this shows decisively to be of the other kind of motion gets that kind's fit;
+    otherwise
     ``f``'s fit stands, which may hold more evidence than its span (a swing cut at a reversal keeps the fit of
     the whole to-and-fro)."""
     if (start, end) == (f.t_start, f.t_end):
         return f
     refit = fit_span(prep, start, float(np.nextafter(end, np.inf)), params)
-    if refit.kind in ("rotation", "translation") and refit.kind != f.kind:
+    if refit.kind in ("rotation", "translation") and refit.kind != f.kind and _decisive(refit, f.kind):
         return replace(refit, t_end=end)
     return replace(f, t_start=start, t_end=end)
+
+
+OVERTURN_NATS = 3.0
+"""Evidence (nats) a widened span's own fit needs over the kind its primitive was fitted as before that kind is
+overturned: strong odds (20 to 1, Jeffreys' scale), since the primitive's kind may rest on more than this span."""
+
+
+def _decisive(refit: SegmentFit, kind: str) -> bool:
+    """Whether the widened span's fit beats ``kind`` by ``OVERTURN_NATS``: a door's short push back, cut at its
+    reversal from the swing it undoes, fits a line about as well as an arc over its few samples."""
+    return refit.scores.get(kind, np.inf) - refit.scores.get(refit.kind, np.inf) > OVERTURN_NATS
 
 
 def _cut(prep: PreparedRecording, f: SegmentFit, t0: float, t1: float, params: LearnParams) -> SegmentFit:

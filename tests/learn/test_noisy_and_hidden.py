@@ -46,8 +46,9 @@ def test_a_slide_under_correlated_camera_depth_noise_is_one_translation() -> Non
 def test_a_door_seen_by_three_very_noisy_markers_keeps_its_hinge_and_its_closing() -> None:
     """Three markers at 12 Hz with 16 mm of noise (40 mm vertical) on a door opened 0.53 rad, then pushed back
     0.28 rad 0.2 s after it stops: the circle fit of so short and noisy an arc can land far from the hinge, the
-    part's turn does not; the closing counts until the door rests, wherever the change points cut it."""
-    for seed in (1, 2, 3):
+    part's turn does not; the closing counts until the door rests, wherever the change points cut it, and its few
+    samples, which fit a line about as well as an arc, do not overturn the rotation the whole swing showed."""
+    for seed in (1, 2, 3, 5):
         t = np.arange(0.0, 9.0, 1.0 / 12.0)
         angle = 0.53 * _ease((t - 2.5) / 3.5) - 0.28 * _ease((t - 6.2) / 0.8)
         rng = RNG(seed)
