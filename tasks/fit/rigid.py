@@ -17,6 +17,7 @@ from scipy.spatial.transform import Rotation
 
 from tasks.arrays import FloatArray, Points, Vector3
 from tasks.fit.geometry import perpendicular_basis, unit
+from tasks.fit.interpolate import MAX_GAP_SAMPLES
 from tasks.fit.noise import noise_sigma
 
 MIN_MARKERS = 3
@@ -24,9 +25,6 @@ MIN_MARKERS = 3
 MIN_SPREAD_M = 0.005
 """Second singular value (rms, m) the centred marker configuration needs: collinear markers fix no turn about
 their line."""
-MAX_GAP_SAMPLES = 3.0
-"""A marker counts at a grid time only when its samples on either side are at most this many median sample
-intervals apart (occlusion bursts are not interpolated across)."""
 REFERENCE_SAMPLES = 5
 """Grid samples averaged into the reference configuration (the part barely moves at a motion's start)."""
 MIN_TURN_RAD = 0.05
@@ -51,7 +49,8 @@ class PartMotion:
 
 
 def _on_grid(t: FloatArray, p: Points, grid: FloatArray) -> tuple[Points, FloatArray]:
-    """Marker positions interpolated at ``grid`` and whether each is bracketed by close samples."""
+    """Marker positions interpolated at ``grid`` and whether each is bracketed by samples at most
+    ``MAX_GAP_SAMPLES`` median intervals apart (occlusion bursts are not interpolated across)."""
     dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
     idx = np.searchsorted(t, grid, side="left")
     inside = (idx > 0) & (idx < len(t))

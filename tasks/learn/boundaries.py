@@ -149,9 +149,8 @@ def _widened(prep: PreparedRecording, f: SegmentFit, start: float, end: float, p
     """Primitive ``f`` over [start, end] (s). When its span grew, the part's path is classified again from the last
     rest sample before the motion to the first after it (across an occlusion gap, those are all that is seen of
     the motion's end): a path that this shows decisively to be of the other kind of motion gets that kind's fit;
-    otherwise
-    ``f``'s fit stands, which may hold more evidence than its span (a swing cut at a reversal keeps the fit of
-    the whole to-and-fro)."""
+    otherwise ``f``'s fit stands, which may hold more evidence than its span (a swing cut at a reversal keeps the
+    fit of the whole to-and-fro)."""
     if (start, end) == (f.t_start, f.t_end):
         return f
     refit = fit_span(prep, start, float(np.nextafter(end, np.inf)), params)

@@ -134,10 +134,6 @@ def fit_span(
 ) -> SegmentFit:
     """Classify and fit one time span [t0, t1) (seconds) of the prepared recording."""
     kinds = {tr.name: marker_kind(tr, t0, t1, params.undefined_nats) for tr in prep.tracks}
-    kinds = {
-        tr.name: "still" if kinds[tr.name] not in (None, "still") and not displaced(tr, t0, t1) else kinds[tr.name]
-        for tr in prep.tracks
-    }
     still = frozenset(n for n, k in kinds.items() if k == "still")
     moving = [tr for tr in prep.tracks if kinds[tr.name] not in (None, "still")]
     if force is not None:
