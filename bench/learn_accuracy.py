@@ -28,7 +28,7 @@ sys.path.insert(0, str(REPO))
 from bench.learn_corpus.case import Case, write_case  # noqa: E402
 from bench.learn_corpus.real import real_cases_at  # noqa: E402
 from bench.learn_corpus.score import score  # noqa: E402
-from bench.learn_corpus.stress import DEV_SEEDS, HELDOUT_SEEDS, dev_cases, heldout_cases  # noqa: E402
+from bench.learn_corpus.stress import DEV_SEEDS, HELDOUT_SEEDS, dev_cases, heldout_cases, stress_cases  # noqa: E402
 from schemas.descriptor import Primitive  # noqa: E402
 from tasks.errors import FitError  # noqa: E402
 from tasks.fit.select import eigenvalue_ratio  # noqa: E402
@@ -331,11 +331,23 @@ def _corpus_run(store: Store, folder: Path, cases: list[Case], title: str) -> No
         print(f"  wrong (ours): {w}")
 
 
-def stress(store: Store, folder: Path, quick: bool) -> None:
-    """The stress corpus (``bench/learn_corpus/stress.py``): development seeds, then held-out seeds."""
+def stress(store: Store, folder: Path, quick: bool, extra: range | None = None) -> None:
+    """The stress corpus (``bench/learn_corpus/stress.py``): development seeds, then held-out seeds; ``extra``
+    development seeds too when given (drawn while developing, beside the table's)."""
     per_seed = 4 if quick else 20
     _corpus_run(store, folder, dev_cases(per_seed), f"Stress corpus, development seeds {DEV_SEEDS}")
     _corpus_run(store, folder, heldout_cases(per_seed), f"Stress corpus, held-out seeds {HELDOUT_SEEDS}")
+    if extra is not None:
+        if held := sorted(set(extra) & set(HELDOUT_SEEDS)):
+            raise SystemExit(f"--extra-stress-seeds: {held} are held out")
+        cases = [case for seed in extra for case in stress_cases(seed, per_seed)]
+        _corpus_run(store, folder, cases, f"Stress corpus, extra development seeds {extra.start}-{extra.stop - 1}")
+
+
+def _seed_range(text: str) -> range:
+    """``A-B`` (inclusive) as a range of seeds."""
+    lo, _, hi = text.partition("-")
+    return range(int(lo), int(hi or lo) + 1)
 
 
 def real_corpus(store: Store, folder: Path, quick: bool) -> None:
@@ -360,6 +372,12 @@ def main() -> None:
         choices=("synthetic", "synth", "real", "stress", "corpus-real"),
         help="run one section (default: all)",
     )
+    parser.add_argument(
+        "--extra-stress-seeds",
+        type=_seed_range,
+        metavar="A-B",
+        help="also run these development seeds of the stress corpus (e.g. 4-31; none of them is held out)",
+    )
     args = parser.parse_args()
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="pbd-bench-learn-") as tmp:
@@ -372,7 +390,7 @@ def main() -> None:
         if args.only in (None, "real"):
             real(store, folder, args.quick)
         if args.only in (None, "stress"):
-            stress(store, folder, args.quick)
+            stress(store, folder, args.quick, args.extra_stress_seeds)
         if args.only in (None, "corpus-real"):
             real_corpus(store, folder, args.quick)
     print(f"\ntotal {time.perf_counter() - t0:.1f} s")
