@@ -252,13 +252,14 @@ def view_directions(family: str, views: int, rng: np.random.Generator) -> np.nda
     return np.array(out)
 
 
-def make_pair(family: str, seed: int) -> TransferPair:
-    """Pair number ``seed`` of ``family`` (deterministic)."""
+def make_pair(family: str, seed: int, points: int | None = None) -> TransferPair:
+    """Pair number ``seed`` of ``family`` (deterministic); ``points``: surface samples of each full model instead
+    of ``POINTS[family]`` (the random draws after the sampling then differ: another pair)."""
     rng = np.random.default_rng([FAMILIES.index(family), seed])
     dims = np.array([rng.uniform(lo, hi) for lo, hi in SIZES[family]])
     if family == "bottle":
         dims[1] = dims[0]
-    n = POINTS[family]
+    n = POINTS[family] if points is None else points
     source = build(family, dims, np.ones(3), n, rng)
     source = FamilyObject(
         source.family,
