@@ -31,7 +31,9 @@ MIN_REST_SAMPLES = 3
 
 
 def part_coordinate(f: SegmentFit, tracks: list[Track], grid: FloatArray) -> tuple[FloatArray, float] | None:
-    """The part's coordinate on ``grid`` (rad or m; NaN where a marker is missing) and its per-sample noise."""
+    """The part's coordinate on ``grid`` (rad or m; NaN where a marker is missing) and its per-sample noise. A
+    marker's angle weighs by its radius over the grid's span, where the angle is measured: a marker resting near
+    the axis there has an angle of noise alone, whatever radius it reaches later in the recording."""
     cols = []
     wts = []
     sig2 = []
@@ -41,7 +43,9 @@ def part_coordinate(f: SegmentFit, tracks: list[Track], grid: FloatArray) -> tup
         if f.kind == "rotation" and f.rotation is not None:
             e1, e2 = perpendicular_basis(f.rotation.dir)
             q = tr.points - f.rotation.pos
-            radius = float(np.median(np.hypot(q @ e1, q @ e2)))
+            rho = np.hypot(q @ e1, q @ e2)
+            seen = (tr.t_s >= grid[0]) & (tr.t_s <= grid[-1]) if len(grid) else np.ones(len(q), dtype=bool)
+            radius = float(np.median(rho[seen] if seen.any() else rho))
             coord = np.unwrap(np.arctan2(q @ e2, q @ e1))
             weight = radius**2
             noise2 = tr.sigma_hf_m**2 / max(radius**2, 1e-12)

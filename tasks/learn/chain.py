@@ -549,7 +549,8 @@ def _end(t_s: FloatArray, seg: Points, first: bool) -> Points:
 def refine_extents(prep: PreparedRecording, fits: list[SegmentFit]) -> list[SegmentFit]:
     """Extents from the rest positions just before and just after each primitive (when the part is still there),
     measured about / along the fitted axis; the turn of a rotation from the rigid body's orientations where the
-    recording has them, else by Procrustes over two or more markers of the part."""
+    recording has them, else by Procrustes over two or more markers of the part, else the markers' turns weighted
+    by their squared radii (the inverse variance of an angle: a marker near the axis turns by its noise alone)."""
     by_name = {tr.name: tr for tr in prep.tracks}
     out = list(fits)
     for i, f in enumerate(fits):
@@ -575,7 +576,7 @@ def refine_extents(prep: PreparedRecording, fits: list[SegmentFit]) -> list[Segm
                 e1, e2 = perpendicular_basis(f.rotation.dir)
                 q = path - f.rotation.pos
                 coord = np.unwrap(np.arctan2(q @ e2, q @ e1))
-                weight = float(np.median(np.linalg.norm(q - np.outer(q @ f.rotation.dir, f.rotation.dir), axis=1)))
+                weight = float(np.median(np.linalg.norm(q - np.outer(q @ f.rotation.dir, f.rotation.dir), axis=1))) ** 2
             elif f.translation is not None:
                 coord = path @ f.translation.dir
                 weight = 1.0
