@@ -22,7 +22,7 @@ from tasks.errors import bounded
 from tasks.fit.geometry import angle_between_axes, perpendicular_basis, unit
 from tasks.fit.interpolate import bracketed, positions_at
 from tasks.fit.moments import span_residuals
-from tasks.fit.noise import MAD_TO_SIGMA
+from tasks.fit.noise import MAD_TO_SIGMA, NOISE_LAG_S
 from tasks.fit.rigid import PartMotion, ScrewAxis, part_motion, rss_about_axis, screw_axis
 from tasks.fit.rotation import RotationFit, angles_about, fit_rotation
 from tasks.fit.select import KINDS, SIGMA_MIN_M, Kind, SelectParams, choose_bic, choose_eigen, model_costs
@@ -88,9 +88,19 @@ SHIFT_PARTS = 4
 in its halves, not in its quarters."""
 
 
+def noise_draws(track: Track, i: int, j: int) -> float:
+    """How many independent draws of its noise ``track``'s samples [i, j) hold: at most one per ``NOISE_LAG_S``
+    (a recorder upsamples a slower sensor by interpolation or repetition, and a camera tracker's noise is correlated
+    over its frames), at least one."""
+    if j <= i:
+        return 1.0
+    return max(min(float(j - i), float(track.t_s[j - 1] - track.t_s[i]) / NOISE_LAG_S + 1.0), 1.0)
+
+
 def displaced(track: Track, t0: float, t1: float) -> bool:
     """Whether a marker's position over [t0, t1) (s) changes beyond its noise (``SHIFT_SIGMAS``) between two of the
-    span's ``SHIFT_PARTS`` equal parts of time; a span with fewer samples than a model needs is not displaced."""
+    span's ``SHIFT_PARTS`` equal parts of time (a part's mean averages the noise down by its ``noise_draws``); a
+    span with fewer samples than a model needs is not displaced."""
     i, j = span_indices(track, t0, t1)
     if j - i < MIN_MODEL_SAMPLES:
         return False
@@ -101,7 +111,7 @@ def displaced(track: Track, t0: float, t1: float) -> bool:
     for a, b in itertools.pairwise(bounds):
         if b > a:
             means.append(track.points[a:b].mean(axis=0))
-            weights.append(float(b - a))
+            weights.append(noise_draws(track, a, b))
     precision = np.linalg.pinv(track.noise_cov + np.eye(3) * SIGMA_MIN_M**2)
     for (ma, wa), (mb, wb) in itertools.combinations(zip(means, weights, strict=True), 2):
         delta = mb - ma

@@ -17,7 +17,7 @@ import itertools
 import numpy as np
 
 from tasks.arrays import FloatArray
-from tasks.learn.chain import displaced, distances_to, marker_kind, rigid_with
+from tasks.learn.chain import displaced, distances_to, marker_kind, noise_draws, rigid_with
 from tasks.learn.params import LearnParams
 from tasks.learn.prepare import ORIENTATION_SEPARATOR, PreparedRecording
 from tasks.segment.tracks import Track, span_indices
@@ -108,7 +108,7 @@ def _rides(hand: list[Track], part: list[Track], t0: float, t1: float, tol_m: fl
 
 DISTANCE_SIGMAS = 4.0
 """A hand's distance to the part has changed when the two windows' median distances differ by this many of their
-standard errors (and by more than the rigid tolerance)."""
+standard errors over their independent samples (``noise_draws``; and by more than the rigid tolerance)."""
 
 
 def _distance_changes(
@@ -123,7 +123,9 @@ def _distance_changes(
         if len(da) < 2 or len(db) < 2:
             continue
         sigma = float(np.hypot(h.sigma_hf_m, p.sigma_hf_m))
-        stderr = MEDIAN_EFFICIENCY * sigma * float(np.sqrt(1.0 / len(da) + 1.0 / len(db)))
+        na = min(len(da), noise_draws(h, *span_indices(h, *a)))
+        nb = min(len(db), noise_draws(h, *span_indices(h, *b)))
+        stderr = MEDIAN_EFFICIENCY * sigma * float(np.sqrt(1.0 / na + 1.0 / nb))
         if abs(float(np.median(da) - np.median(db))) > max(tol_m, DISTANCE_SIGMAS * stderr):
             return True
     return False

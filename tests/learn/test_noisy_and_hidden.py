@@ -9,7 +9,7 @@ import pytest
 
 from tasks.fit.geometry import angle_between_axes
 from tasks.learn.api import learn_chain
-from tasks.learn.chain import marker_kind, rigid_with
+from tasks.learn.chain import displaced, marker_kind, rigid_with
 from tasks.learn.params import LearnParams
 from tasks.segment.tracks import make_track
 from tests.learn.test_unseen_recordings import (
@@ -113,6 +113,22 @@ def test_a_still_marker_under_noise_is_still_in_nearly_every_short_window(hz: fl
     starts = np.arange(0.0, 59.0, 0.5)
     kinds = [marker_kind(track, a, a + rng.uniform(0.45, 0.8), 9.0) for a in starts]
     assert sum(k != "still" for k in kinds) <= 2
+
+
+@pytest.mark.parametrize("hz", [100.0, 240.0])
+def test_a_still_marker_from_a_camera_upsampled_by_its_recorder_is_not_displaced(hz: float) -> None:
+    """A resting marker seen by a 30 Hz camera under 5 mm of noise and written at 100 or 240 Hz by interpolation:
+    the recorder's samples between two frames are no new draws of the noise, so a window's parts average it down
+    by their frames, not by their samples (the hand detector's windows test this displacement alone)."""
+    rng = RNG(9)
+    frames = np.arange(0.0, 60.0, 1.0 / 30.0)
+    noise = rng.normal(0.0, 0.005, (len(frames), 3))
+    t = np.arange(0.0, 59.9, 1.0 / hz)
+    pts = np.column_stack([np.interp(t, frames, noise[:, k]) for k in range(3)]) + np.array([0.3, 0.1, 0.8])
+    track = make_track("rest", t, pts, 0.002)
+    starts = np.arange(0.0, 59.0, 0.5)
+    moved = [displaced(track, a, a + rng.uniform(0.45, 0.8)) for a in starts]
+    assert sum(moved) <= 2
 
 
 def test_a_drawer_whose_noisy_markers_seem_to_turn_is_still_a_translation() -> None:
