@@ -3,7 +3,7 @@
 The seed is the demonstrator's wrist tracker pose (world frame, metres, quaternion [x, y, z, w]) at the stillest moment
 before the first primitive, turned into a palm pose through the sensor-to-palm offset (``PalmOffset``).
 
-``plan_on_model`` is the planner, one search (docs/grasp.md): every generator of ``generators.GENERATORS`` proposes
+``plan_on_model`` is the planner, one search (docs/grasp.md): every generator of ``planner.GENERATORS`` proposes
 states of one search space around the demonstrated palm (``planner.SearchSpace``), each is executed as the robot
 executes a grasp (``execution.py``), the grasps are ranked once (``rank``) and, in that order, those that survive a
 robot's wrist error (``execution.robust``) are shaken by the hold check within one time budget (``choose``).

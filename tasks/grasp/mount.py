@@ -1,28 +1,20 @@
 """The mount behind a grasped part: the face a handle, a lever or a knob stands on (a door leaf, an oven door), or the
 neck and body under a cap (``find_cap``).
 
-A grasp is planned on the part the hand reaches for; the face that part is fixed to is only an obstacle. Counted as part
-of the object, it gives fingertips resting on it a share in the grasp: a planned force closure whose fingertips pressed
-on a door's leaf behind its lever pushed the part away as soon as it was a free body (the shake test), and held the
-lever by nothing. The mount is found as one of the largest planes of the object model (scikit-learn's
-``RANSACRegressor``, depth along the approach as a linear function of the two coordinates across it: seeded, so the same
-scan gives the same mount) that faces the hand (its normal within ``MAX_TILT_RAD`` of the approach axis), is wider than
-the hand (``MIN_SPAN_M``), is not a strip (``MIN_WIDTH_M``) and lies at least ``MIN_DEPTH_M`` behind the surface nearest
-the palm along the approach (something stands in front of it: the part). A box face or a cylinder the palm meets first
-is never a mount. World frame, metres.
+A grasp is planned on the part the hand reaches for; the face that part is fixed to is only an obstacle: fingertips
+pressing it hold nothing of the part once it is a free body (the shake test). The mount is one of the largest planes of
+the model (scikit-learn's seeded ``RANSACRegressor``, depth along the approach a linear function of the two coordinates
+across it) that faces the hand (``MAX_TILT_RAD``), is wider than the hand (``MIN_SPAN_M``), is not a strip
+(``MIN_WIDTH_M``) and lies at least ``MIN_DEPTH_M`` behind the surface nearest the palm along the approach (the part
+stands in front of it). A box face or a cylinder the palm meets first is never a mount. World frame, metres.
 
-A cap the palm looks down on is the solid the palm meets first, as far as its sides keep one radius; the neck or body it
-sits on is its mount. A bottle's cap stands on a neck 2 mm narrower than itself, on a shoulder and a body, none of which
-is a plane facing the hand. Counted as one free body with the cap, the neck lets fingers that close on it hold in the
-planner's check while on the bottle only the cap turns; planned on the cap alone (one exact piece) with the neck and
-body as its mount, the check asks what the task needs: that the cap stays in the hand.
+A cap the palm looks down on is the solid the palm meets first, as far as its sides keep one radius; the neck and body
+it sits on (none of them a plane facing the hand) are its mount: counted in the free body, a neck lets fingers closing
+on it hold in the planner's check while on the bottle only the cap turns.
 
-The top face is the plane most of the points nearest the palm lie on; its normal is the cap's axis and the middle of its
-points' extent the cap's centre. The side is walked on the points as scanned (voxels average a step's two sides), by the
-outermost point of each slab: going down the axis in slabs of ``SLAB_M``, the cap's side lies within ``STEP_M`` of the
-radius of its rim all round (``SECTORS``); the first slab whose outermost points lie inside that radius by more (a neck)
-or outside it within ``BESIDE_M`` (a shoulder) ends the cap, and a side that goes on past ``MAX_HEIGHT_M`` is no cap (a
-can). World frame, metres.
+The top face is the plane most of the points nearest the palm lie on (``_ransac_plane``); the side is walked down its
+axis on the points as scanned (voxels average a step's two sides) in slabs while it keeps the rim's radius (``_round``).
+World frame, metres.
 """
 
 from __future__ import annotations

@@ -1,14 +1,10 @@
 """The object to grasp, built from the descriptor's object model point cloud (metres, world frame).
 
-Collision geometry: the cloud is split by k-means into compact clusters and each cluster becomes one convex piece, the
-hull of its points and of the same points pushed 5 mm inwards along their normals (so a patch of a flat face still has
-thickness). The pieces are the links of one pybullet body (fixed joints). Small convex pieces keep concave shapes
-concave (the gap behind a door handle stays open), which one convex hull would fill, and unlike a triangle mesh they
-also work for a free (dynamic) body in the shake test. Normals are the PCA normals of the k nearest neighbours, oriented
-by propagation along a minimum spanning tree (Hoppe et al.). A box or cylinder replaces the pieces when it explains the
-points (``build_object_model``, ``tasks.grasp.primitive_fit``) or when it is known (the true shape of a test object); on
-a part with a mount, the bar found in it (``tasks.grasp.part_cylinders``) is one exact piece, a 64-sided prism, beside
-the convex pieces of the rest.
+Collision geometry: the cloud is split by k-means into compact clusters, each one convex piece: the hull of its points
+and of the same points pushed 5 mm inwards along their normals (a patch of a flat face keeps thickness), the links of
+one pybullet body. Small convex pieces keep concave shapes concave (the gap behind a door handle stays open), and
+unlike a triangle mesh they work for a free body in the shake test. A fitted box or cylinder, or a bar's cylinder beside
+the pieces of the rest, replaces them where it explains the points (``build_object_model``).
 """
 
 from __future__ import annotations
@@ -95,7 +91,9 @@ class ObjectModel:
             return self
         keep = ~self.mount
         parts = self.parts[: len(self.parts) - self.mount_parts]
-        return ObjectModel(self.points[keep], self.normals[keep], self.center, self.radius, parts)
+        return ObjectModel(
+            self.points[keep], self.normals[keep], self.center, self.radius, parts, cylinder=self.cylinder
+        )
 
 
 def check_object_points(points: object, name: str = "object_points") -> Points:
@@ -383,7 +381,9 @@ def _hull_volume(vertices: Points) -> float:
 
 
 def load_object(client_id: int, model: ObjectModel, *, mass_kg: float = 0.0, friction: float = 0.8) -> int:
-    """Create the object in pybullet (static when ``mass_kg`` is 0); returns the body id. World frame."""
+    """Create the object in pybullet (static when ``mass_kg`` is 0); returns the body id. World frame. A model's
+    ``cylinder`` is Bullet's round cylinder, its prism only weighing it: a prism's flats seat a fingertip's flat pad and
+    hold a roll that the round bar lets go, or not, as the arbitrary phase of its 64 facets falls."""
     prim = model.primitive
     if prim is not None:
         size = {"halfExtents": list(prim.size)} if prim.kind == "box" else {"radius": prim.size[0]}
@@ -405,6 +405,15 @@ def load_object(client_id: int, model: ObjectModel, *, mass_kg: float = 0.0, fri
             pb.createCollisionShape(pb.GEOM_MESH, vertices=(part - c).tolist(), physicsClientId=client_id)
             for part, c in zip(model.parts, centres, strict=True)
         ]
+        if (bar := model.cylinder) is not None:  # the bar or cap collides round (``load_object``), not as its prism
+            shapes[0] = pb.createCollisionShape(
+                pb.GEOM_CYLINDER,
+                radius=bar.size[0],
+                height=2.0 * bar.size[1],
+                collisionFramePosition=(np.asarray(bar.position) - centres[0]).tolist(),
+                collisionFrameOrientation=list(bar.quat_xyzw),
+                physicsClientId=client_id,
+            )
         n = len(shapes)
         body = pb.createMultiBody(
             baseMass=float(masses[0]),

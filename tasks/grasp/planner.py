@@ -8,16 +8,13 @@ demonstrated palm's x and y). Bounds (``PlannerParams``): amplitudes ±4, d -30.
 demonstration fixes the approach and roughly the place, not the exact pose.
 
 **Energy** (``contact_energy``): GraspIt!'s contact energy, the mean over the hand's virtual contacts of their distance
-to the object plus the misalignment of their normals with the surface's, in mm; a state whose hand surface enters the
-object is illegal.
+to the object plus 50 mm times their normals' misalignment; a state whose hand surface enters the object is illegal.
 
 **Loop** (``anneal``): simulated annealing with GraspIt!'s online schedule (``temperature``; Ingber's neighbour draws),
-a chain of ``steps`` per start; every state evaluated is offered to a **list of the best unique states** (``BestList``:
-the lowest energies, each differing from the others by a tenth of the search range in some variable).
+a chain of ``steps`` per start; every state evaluated is offered to the list of the best unique states (``BestList``).
 
-**Proposals** (``GENERATORS``): where the states to execute come from, registered in one place; each generator maps
-(object model, search space, parameters, random generator) to ``Proposal`` s and proposes nothing where its
-mechanism does not apply; ``tasks.grasp.api.plan_on_model`` executes them all and ranks the grasps together.
+**Proposals** (``GENERATORS``): the generators of states to execute, registered in one place, each proposing nothing
+where its mechanism does not apply; ``tasks.grasp.api.plan_on_model`` executes them all and ranks the grasps together.
 """
 
 from __future__ import annotations

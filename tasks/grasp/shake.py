@@ -1,11 +1,9 @@
 """Shake test: does a grasp hold the part as a free body under gravity and shaking (pybullet, DIRECT)?
 
-The part (the planner's object model) is a dynamic body of 0.3 kg; the hand closes on it and squeezes (``grip``). The
-palm is held by a fixed constraint that follows the program (``ShakeParams.gravity`` and ``ShakeParams.motions``):
-gravity in each direction one phase after another, each phase settling 0.5 s, then the motions, translations or turns of
-the palm about an axis through it (``Motion``). The grasp holds when the part's pose relative to the palm moves less
-than ``max_shift_m`` and ``max_turn_rad`` from where it settled; the test stops as soon as either is exceeded.
-``hold_check`` is the planner's program, run on its own object model before ``tasks.grasp.api`` chooses a grasp.
+The part (the planner's object model) is a dynamic body of 0.3 kg; the hand closes on it and squeezes (``grip``); the
+palm, held by a fixed constraint, follows the program (``ShakeParams``: gravity phases, each settling 0.5 s, then the
+motions, ``Motion``). The grasp holds while the part moves less than ``max_shift_m`` and turns less than
+``max_turn_rad`` in the hand from where it settled. ``hold_check`` is the planner's program, run on its own model.
 """
 
 from __future__ import annotations

@@ -14,6 +14,7 @@ from tasks.grasp.api import part_near, plan_on_model
 from tasks.grasp.execution import grasp_from_candidate
 from tasks.grasp.object_model import build_object_model
 from tasks.grasp.shake import shake_test
+from tests.grasp.cases.families import family_cases
 from tests.grasp.cases.grasp import Case, hold_program, random_cases, scene_cases
 
 SCENE_ROWS = 12
@@ -45,6 +46,17 @@ def plan_bench_scene(seed: int, name: str) -> PlannedObject:
     cases = scene_cases(range(SCENE_ROWS // 4))
     row = next(i for i, c in enumerate(cases) if c.name == name)
     return _planned(cases[row], seed, row)
+
+
+def plan_bench_family(seed: int, name: str) -> PlannedObject:
+    """Plan the family object ``name`` of ``bench/grasp.py``'s seed ``seed`` as it does (one scene seed, 15 randomised
+    and 15 family objects drawn in turn from one generator) and shake the grasp on its exact shapes with its program."""
+    rng = np.random.default_rng(seed)
+    rng.integers(0, 1000, 1)  # the scene seed: four scene rows
+    randomised = random_cases(15, rng)
+    cases = family_cases(15, rng)
+    index = next(i for i, c in enumerate(cases) if c.name == name)
+    return _planned(cases[index], seed, 4 + len(randomised) + index)
 
 
 def _planned(case: Case, seed: int, row: int) -> PlannedObject:

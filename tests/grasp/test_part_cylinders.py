@@ -4,12 +4,15 @@ planned on as one exact piece; a box, a plate and a sphere give none."""
 from __future__ import annotations
 
 import numpy as np
+import pybullet as pb
 from scipy.spatial.transform import Rotation
 
 from tasks.grasp.object_model import (
+    ObjectModel,
     PrimitiveShape,
     build_object_model,
     estimate_normals,
+    load_object,
     voxel_downsample,
 )
 from tasks.grasp.part_cylinders import find_cylinder, prism_vertices
@@ -77,3 +80,35 @@ def test_a_mounted_handle_is_planned_on_its_bar_and_the_truth_is_not_fitted() ->
     assert pieces.primitive is None
     truth = labelled_model(pts[:-1500], pts[-1500:], rng, viewpoint=palm)
     assert truth.cylinder is None and max(len(p) for p in truth.parts) < 128
+
+
+def test_a_bar_collides_round_not_as_its_prism() -> None:
+    """The model's bar collides as a round cylinder of its radius and length, fixed or free (the part without its
+    mount, as the hold check shakes it): no facets of its 64-sided prism for a fingertip's flat pad to seat on. A
+    probe 13 mm from the axis is 3 mm from it (Bullet's closest points, to GJK's tolerance) at any azimuth."""
+    quat = Rotation.from_euler("y", 90, degrees=True).as_quat()
+    bar = PrimitiveShape("cylinder", (0.01, 0.05, 0.0), (0.5, 0.0, 0.5), tuple(float(q) for q in quat))
+    plate = np.array([[x, 0.03 + d, z] for x in (0.4, 0.6) for d in (0.0, 0.01) for z in (0.45, 0.55)])
+    points = np.concatenate([prism_vertices(bar), plate])
+    mount = np.arange(len(points)) >= 128
+    model = ObjectModel(
+        points, np.zeros_like(points), bar.position, 0.05, (prism_vertices(bar), plate), None, mount, 1, bar
+    )
+    for body_model, mass in ((model, 0.0), (model.without_mount(), 0.3)):
+        client = pb.connect(pb.DIRECT)
+        try:
+            obj = load_object(client, body_model, mass_kg=mass)
+            (shape,) = pb.getCollisionShapeData(obj, -1, physicsClientId=client)
+            assert shape[2] == pb.GEOM_CYLINDER
+            np.testing.assert_allclose(shape[3][:2], (0.1, 0.01))
+            probe = pb.createMultiBody(
+                0.0, pb.createCollisionShape(pb.GEOM_SPHERE, radius=1e-4, physicsClientId=client)
+            )
+            for azimuth in np.linspace(0.0, 2.0 * np.pi, 24, endpoint=False):
+                radial = Rotation.from_quat(quat).apply([np.cos(azimuth), np.sin(azimuth), 0.0])
+                at = np.array(bar.position) + 0.0131 * radial
+                pb.resetBasePositionAndOrientation(probe, at.tolist(), [0, 0, 0, 1], physicsClientId=client)
+                (hit,) = [p for p in pb.getClosestPoints(probe, obj, 0.01, physicsClientId=client) if p[4] == -1]
+                assert abs(hit[8] - 0.003) < 5e-5
+        finally:
+            pb.disconnect(client)
