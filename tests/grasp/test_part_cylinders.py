@@ -101,9 +101,8 @@ def test_a_bar_collides_round_not_as_its_prism() -> None:
             (shape,) = pb.getCollisionShapeData(obj, -1, physicsClientId=client)
             assert shape[2] == pb.GEOM_CYLINDER
             np.testing.assert_allclose(shape[3][:2], (0.1, 0.01))
-            probe = pb.createMultiBody(
-                0.0, pb.createCollisionShape(pb.GEOM_SPHERE, radius=1e-4, physicsClientId=client)
-            )
+            sphere = pb.createCollisionShape(pb.GEOM_SPHERE, radius=1e-4, physicsClientId=client)
+            probe = pb.createMultiBody(0.0, sphere, physicsClientId=client)
             for azimuth in np.linspace(0.0, 2.0 * np.pi, 24, endpoint=False):
                 radial = Rotation.from_quat(quat).apply([np.cos(azimuth), np.sin(azimuth), 0.0])
                 at = np.array(bar.position) + 0.0131 * radial
