@@ -32,8 +32,9 @@ MIN_REST_SAMPLES = 3
 
 def part_coordinate(f: SegmentFit, tracks: list[Track], grid: FloatArray) -> tuple[FloatArray, float] | None:
     """The part's coordinate on ``grid`` (rad or m; NaN where a marker is missing) and its per-sample noise. A
-    marker's angle weighs by its radius over the grid's span, where the angle is measured: a marker resting near
-    the axis there has an angle of noise alone, whatever radius it reaches later in the recording."""
+    marker's angle weighs by its squared radius (the inverse variance of an angle) over the grid's span, where the
+    angle is measured: a marker resting near the axis there has an angle of noise alone, whatever radius it reaches
+    later in the recording."""
     cols = []
     wts = []
     sig2 = []
