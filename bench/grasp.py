@@ -17,10 +17,14 @@ the palm as its mount; a handle's or family object's shapes, ``cases/exact.py``)
 2-4 Hz with 5-8 m/s² peaks and a 5-10° palm turn, three cycles each, about 16 s; 10 mm / 10° tolerances). The
 fingers close on part and mount (held static); then the part alone is the free body.
 
+``--extra-seeds A-B`` also draws the objects of these further development seeds (more objects to diagnose on;
+the held-out seeds are refused); ``--part extra`` runs only them.
+
 ``--execute`` adds the learned-execution figure: ``pbd synth`` seeds 0-9 of each scene learned and executed in
 pybullet (``tasks.simulate``).
 
-    .venv/bin/python bench/grasp.py [--part development|held-out|all] [--quick] [--only TEXT] [--execute]
+    .venv/bin/python bench/grasp.py [--part development|held-out|extra|all] [--extra-seeds A-B] [--quick]
+        [--only TEXT] [--execute]
 """
 
 from __future__ import annotations
@@ -245,19 +249,39 @@ def execute_learned(seeds: range, only: str | None) -> None:
     print(f"learned and executed, all: {total}/{runs} succeed, {closures}/{runs} force closure")
 
 
+def _seed_range(text: str) -> range:
+    """``A-B`` (inclusive) or ``A`` as a range of benchmark seeds."""
+    lo, _, hi = text.partition("-")
+    return range(int(lo), int(hi or lo) + 1)
+
+
 def main() -> int:
-    """Run the development and/or held-out part and print each part's table."""
+    """Run the development, extra development and/or held-out part and print each part's table."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--part", choices=("development", "held-out", "all"), default="all")
+    parser.add_argument("--part", choices=("development", "held-out", "extra", "all"), default="all")
+    parser.add_argument(
+        "--extra-seeds",
+        type=_seed_range,
+        metavar="A-B",
+        help="also run these development seeds (e.g. 8-11; the held-out seeds are refused)",
+    )
     parser.add_argument("--quick", action="store_true", help="6 randomised and 10 family objects per seed")
     parser.add_argument("--only", default=None, help="only the objects whose 'index:name' contains this text")
     parser.add_argument("--execute", action="store_true", help="also learn and execute pbd synth seeds 0-9")
     args = parser.parse_args()
+    extra: range = args.extra_seeds or range(0)
+    if held := sorted(set(extra) & set(HELD_OUT_SEEDS)):
+        parser.error(f"--extra-seeds: {held} are held out")
+    if args.part == "extra" and not extra:
+        parser.error("--part extra needs --extra-seeds")
     if args.part in {"development", "all"}:
         print_table(run_seed(DEVELOPMENT_SEED, args), f"development, seed {DEVELOPMENT_SEED}")
     if args.part in {"held-out", "all"}:
         rows = [r for seed in HELD_OUT_SEEDS for r in run_seed(seed, args)]
         print_table(rows, f"held out, seeds {' '.join(str(s) for s in HELD_OUT_SEEDS)}")
+    if extra:
+        rows = [r for seed in extra for r in run_seed(seed, args)]
+        print_table(rows, f"extra development, seeds {extra.start}-{extra.stop - 1}")
     if args.execute:
         execute_learned(range(10), args.only)
     return 0
