@@ -17,7 +17,7 @@ from scipy.spatial.transform import Rotation
 
 from tasks.arrays import FloatArray, Points, Vector3
 from tasks.fit.geometry import perpendicular_basis, unit
-from tasks.fit.interpolate import MAX_GAP_SAMPLES
+from tasks.fit.interpolate import MAX_GAP_SAMPLES, positions_at
 from tasks.fit.noise import noise_sigma
 
 MIN_MARKERS = 3
@@ -57,8 +57,7 @@ def _on_grid(t: FloatArray, p: Points, grid: FloatArray) -> tuple[Points, FloatA
     exact = (idx < len(t)) & (t[np.minimum(idx, len(t) - 1)] == grid)
     gap = np.where(inside, t[np.minimum(idx, len(t) - 1)] - t[np.maximum(idx - 1, 0)], np.inf)
     ok = exact | (inside & (gap <= MAX_GAP_SAMPLES * dt))
-    pts: Points = np.column_stack([np.interp(grid, t, p[:, i]) for i in range(3)])
-    return pts, ok
+    return positions_at(t, p, grid), ok
 
 
 def kabsch(reference: Points, current: FloatArray) -> FloatArray:

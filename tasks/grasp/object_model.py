@@ -401,19 +401,22 @@ def load_object(client_id: int, model: ObjectModel, *, mass_kg: float = 0.0, fri
             volumes = np.array([max(_hull_volume(p), 1e-9) for p in model.parts])
             masses = mass_kg * volumes / volumes.sum()
         centres = [part.mean(axis=0) for part in model.parts]
-        shapes = [
-            pb.createCollisionShape(pb.GEOM_MESH, vertices=(part - c).tolist(), physicsClientId=client_id)
-            for part, c in zip(model.parts, centres, strict=True)
-        ]
-        if (bar := model.cylinder) is not None:  # the bar or cap collides round (``load_object``), not as its prism
-            shapes[0] = pb.createCollisionShape(
-                pb.GEOM_CYLINDER,
-                radius=bar.size[0],
-                height=2.0 * bar.size[1],
-                collisionFramePosition=(np.asarray(bar.position) - centres[0]).tolist(),
-                collisionFrameOrientation=list(bar.quat_xyzw),
-                physicsClientId=client_id,
+        shapes = []
+        if (bar := model.cylinder) is not None:  # the first part, the bar or cap, collides round, not as its prism
+            shapes.append(
+                pb.createCollisionShape(
+                    pb.GEOM_CYLINDER,
+                    radius=bar.size[0],
+                    height=2.0 * bar.size[1],
+                    collisionFramePosition=(np.asarray(bar.position) - centres[0]).tolist(),
+                    collisionFrameOrientation=list(bar.quat_xyzw),
+                    physicsClientId=client_id,
+                )
             )
+        shapes += [
+            pb.createCollisionShape(pb.GEOM_MESH, vertices=(part - c).tolist(), physicsClientId=client_id)
+            for part, c in zip(model.parts[len(shapes) :], centres[len(shapes) :], strict=True)
+        ]
         n = len(shapes)
         body = pb.createMultiBody(
             baseMass=float(masses[0]),
