@@ -17,7 +17,7 @@ from scipy.spatial.transform import Rotation
 
 from tasks.arrays import FloatArray, Points, Vector3
 from tasks.fit.geometry import perpendicular_basis, unit
-from tasks.fit.interpolate import MAX_GAP_SAMPLES, positions_at
+from tasks.fit.interpolate import bracketed, positions_at
 from tasks.fit.noise import noise_sigma
 
 MIN_MARKERS = 3
@@ -48,18 +48,6 @@ class PartMotion:
     current: FloatArray
 
 
-def _on_grid(t: FloatArray, p: Points, grid: FloatArray) -> tuple[Points, FloatArray]:
-    """Marker positions interpolated at ``grid`` and whether each is bracketed by samples at most
-    ``MAX_GAP_SAMPLES`` median intervals apart (occlusion bursts are not interpolated across)."""
-    dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
-    idx = np.searchsorted(t, grid, side="left")
-    inside = (idx > 0) & (idx < len(t))
-    exact = (idx < len(t)) & (t[np.minimum(idx, len(t) - 1)] == grid)
-    gap = np.where(inside, t[np.minimum(idx, len(t) - 1)] - t[np.maximum(idx - 1, 0)], np.inf)
-    ok = exact | (inside & (gap <= MAX_GAP_SAMPLES * dt))
-    return positions_at(t, p, grid), ok
-
-
 def kabsch(reference: Points, current: FloatArray) -> FloatArray:
     """(g, 3, 3) rotations that best map the centred (m, 3) ``reference`` onto each centred (g, m, 3) ``current``
     configuration (least squares, proper rotations; Kabsch 1976), batched over g."""
@@ -79,11 +67,10 @@ def part_motion(times: list[FloatArray], tracks: list[Points]) -> PartMotion | N
         return None
     longest = max(range(len(times)), key=lambda i: len(times[i]))
     grid = times[longest]
-    on = [_on_grid(t, p, grid) for t, p in zip(times, tracks, strict=True)]
-    ok = np.all([o for _, o in on], axis=0)
+    ok = np.all([bracketed(t, grid) for t in times], axis=0)  # occlusions are not interpolated across
     if ok.sum() < REFERENCE_SAMPLES + 2:
         return None
-    pts = np.stack([p for p, _ in on], axis=1)[ok]  # (g, m, 3)
+    pts = np.stack([positions_at(t, p, grid[ok]) for t, p in zip(times, tracks, strict=True)], axis=1)  # (g, m, 3)
     centroids = pts.mean(axis=1)
     centred = pts - centroids[:, None, :]
     reference = centred[:REFERENCE_SAMPLES].mean(axis=0)

@@ -117,17 +117,19 @@ def _distance_changes(
     """Whether a marker of ``hand`` is at another distance from a marker of ``part`` over window ``a`` than over
     window ``b`` (s), by more than ``tol_m`` (m, the rigid tolerance): it reached or withdrew, where a marker of the
     part keeps its distance to all of the part however its motion is seen to start."""
-    for h, p in itertools.product(hand, part):
-        da = _distances(h, p, *a)
-        db = _distances(h, p, *b)
-        if len(da) < 2 or len(db) < 2:
-            continue
-        sigma = float(np.hypot(h.sigma_hf_m, p.sigma_hf_m))
-        na = min(len(da), noise_draws(h, *span_indices(h, *a)))
-        nb = min(len(db), noise_draws(h, *span_indices(h, *b)))
-        stderr = MEDIAN_EFFICIENCY * sigma * float(np.sqrt(1.0 / na + 1.0 / nb))
-        if abs(float(np.median(da) - np.median(db))) > max(tol_m, DISTANCE_SIGMAS * stderr):
-            return True
+    for h in hand:
+        draws_a = noise_draws(h, *span_indices(h, *a))
+        draws_b = noise_draws(h, *span_indices(h, *b))
+        for p in part:
+            da = _distances(h, p, *a)
+            db = _distances(h, p, *b)
+            if len(da) < 2 or len(db) < 2:
+                continue
+            sigma = float(np.hypot(h.sigma_hf_m, p.sigma_hf_m))
+            na, nb = min(len(da), draws_a), min(len(db), draws_b)
+            stderr = MEDIAN_EFFICIENCY * sigma * float(np.sqrt(1.0 / na + 1.0 / nb))
+            if abs(float(np.median(da) - np.median(db))) > max(tol_m, DISTANCE_SIGMAS * stderr):
+                return True
     return False
 
 

@@ -97,3 +97,18 @@ def test_a_pose_streams_orientation_noise_widens_its_screw_axis_sigma() -> None:
         assert screw is not None
         ratios.append(angle_between_axes(screw.dir, AXIS_DIR, signed=False) / screw.dir_std_rad)
     assert float(np.median(ratios)) < 2.0
+
+
+def test_a_dropout_is_bridged_as_in_every_fit_and_an_occlusion_is_not() -> None:
+    """The same rule as ``interpolate.bracketed``: each marker's 42 ms dropout at 120 Hz is interpolated across (a
+    part's speed barely changes in it); a 0.3 s occlusion is not."""
+    times, tracks = _part(0.53, 0.0, 0.0005, seed=4)
+    motion = part_motion(times, tracks)
+    assert motion is not None
+    assert len(motion.t_s) == len(times[0])  # the grid: the first marker's 116 samples
+    hidden = (times[0] > 0.4) & (times[0] < 0.7)
+    times[0], tracks[0] = times[0][~hidden], tracks[0][~hidden]
+    motion = part_motion(times, tracks)
+    assert motion is not None
+    assert not np.any((motion.t_s > 0.41) & (motion.t_s < 0.69))
+    assert len(motion.t_s) > 80
