@@ -123,17 +123,9 @@ def bulk_decode(batch: Batch, msgtype: str, encoding: str) -> BulkResult:
         s = int(slen[sel[0]])
         g_idx, g_off = cand[sel], off[sel]
         pos = 16 + pre + s  # end of the frame id chars, from the payload start
-        if encoding == "cdr":
-            if two:
-                pos = 4 + ((pos - 4 + 3) // 4) * 4
-                if pos + 4 > L:
-                    rest_parts.append(g_idx)
-                    continue
-                c = _u32(arr, g_off + pos)
-                groups = [(int(cl), np.flatnonzero(c == cl)) for cl in np.unique(c).tolist()]
-            else:
-                groups = [(-1, np.arange(len(sel)))]
-        elif two:
+        if two and encoding == "cdr":
+            pos = 4 + ((pos - 4 + 3) // 4) * 4  # CDR aligns the u32 to 4 bytes past the encapsulation header
+        if two:
             if pos + 4 > L:
                 rest_parts.append(g_idx)
                 continue

@@ -21,7 +21,6 @@ from tasks.arrays import FloatArray, Points
 from tasks.errors import bounded
 from tasks.fit.geometry import angle_between_axes, perpendicular_basis, unit
 from tasks.fit.interpolate import bracketed, positions_at
-from tasks.fit.moments import span_residuals
 from tasks.fit.noise import MAD_TO_SIGMA, NOISE_LAG_S
 from tasks.fit.rigid import PartMotion, ScrewAxis, part_motion, rss_about_axis, screw_axis
 from tasks.fit.rotation import RotationFit, angles_about, fit_rotation
@@ -29,8 +28,8 @@ from tasks.fit.select import KINDS, SIGMA_MIN_M, Kind, SelectParams, choose_bic,
 from tasks.fit.translation import TranslationFit, fit_translation, travels_agree
 from tasks.learn.params import LearnParams
 from tasks.learn.prepare import MIN_SAMPLES, PreparedRecording, is_orientation_marker
-from tasks.segment.changepoint import MIN_MODEL_SAMPLES
-from tasks.segment.tracks import Track, anisotropy, span_indices
+from tasks.segment.changepoint import MIN_MODEL_SAMPLES, marker_costs
+from tasks.segment.tracks import Track, span_indices
 
 HAND_ONLY = "only hand markers move"
 """Note of a reach or release segment (normal, dropped without a warning)."""
@@ -64,18 +63,7 @@ def marker_kind(track: Track, t0: float, t1: float, undefined: float) -> Kind | 
     i, j = span_indices(track, t0, t1)
     if j - i < MIN_MODEL_SAMPLES:
         return None
-    res = span_residuals(track.moments, np.array([i]), np.array([j]))
-    precision, excess = anisotropy(track)
-    costs = model_costs(
-        res.n,
-        res.still,
-        res.line,
-        res.circle,
-        sigma_still=track.sigma_hf_m,
-        sigma_model=track.sigma_m,
-        undefined=undefined,
-        still_noise=(res.scatter, precision[None], np.array([excess])),
-    )
+    _, costs = marker_costs(track, np.array([i]), np.array([j]), undefined)
     kind = KINDS[int(np.argmin(costs[0]))]
     return "still" if kind != "still" and not displaced(track, t0, t1) else kind
 

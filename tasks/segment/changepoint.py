@@ -65,8 +65,9 @@ class Segmentation:
         return list(zip(self.bounds_s[:-1], self.bounds_s[1:], strict=True))
 
 
-def _marker_cost(track: Track, start: IntArray, stop: IntArray, undefined: float) -> FloatArray:
-    """(b,) cost in nats of the best model of ``track`` over sample spans [start, stop); 0 for < 4 samples."""
+def marker_costs(track: Track, start: IntArray, stop: IntArray, undefined: float) -> tuple[IntArray, FloatArray]:
+    """Sample counts (b,) of ``track``'s sample spans [start, stop) and the cost (b, 4) in nats of each model
+    (``tasks.fit.select.KINDS``) over them, the still model under the marker's anisotropic sensor noise."""
     res = span_residuals(track.moments, start, stop)
     precision, excess = anisotropy(track)
     b = len(res.n)
@@ -80,10 +81,14 @@ def _marker_cost(track: Track, start: IntArray, stop: IntArray, undefined: float
         undefined=undefined,
         still_noise=(res.scatter, np.broadcast_to(precision, (b, 3, 3)), np.full(b, excess)),
     )
-    best: FloatArray = np.where(
-        res.count >= MIN_MODEL_SAMPLES, costs.min(axis=1), costs[:, FEW_SAMPLE_MODELS].min(axis=1)
-    )
-    return np.where(res.count > 0, best, 0.0)
+    return res.count, costs
+
+
+def _marker_cost(track: Track, start: IntArray, stop: IntArray, undefined: float) -> FloatArray:
+    """(b,) cost in nats of the best model of ``track`` over sample spans [start, stop); 0 for < 4 samples."""
+    count, costs = marker_costs(track, start, stop, undefined)
+    best: FloatArray = np.where(count >= MIN_MODEL_SAMPLES, costs.min(axis=1), costs[:, FEW_SAMPLE_MODELS].min(axis=1))
+    return np.where(count > 0, best, 0.0)
 
 
 def spans_cost(tracks: list[Track], t_from: FloatArray, t_to: FloatArray, undefined: float) -> FloatArray:
