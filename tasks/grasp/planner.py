@@ -340,9 +340,11 @@ def square_pinch(
     model: ObjectModel, space: SearchSpace, _params: PlannerParams, _rng: np.random.Generator
 ) -> list[Proposal]:
     """On a part with a bar: palms square to the bar, +x along it, through its axis where it passes nearest the
-    demonstrated palm, ``TIP_DISTANCES_M`` from its surface, at ``TIP_SPREADS_RAD``, closed where they are; those
-    outside the search space left out: tilted fingertips meet a round bar at different heights and a squeeze rolls it
-    out of them."""
+    demonstrated palm, closed where they are (those outside the search space left out: tilted fingertips meet a round
+    bar at different heights and a squeeze rolls it out of them). Thumb against fingers 1 and 2 (spread 0) with the
+    fingertips closing on the bar's widest (``barrett.tip_depth``): tips meeting it short of or past its widest push
+    it out or drag it rolling towards the palm as they squeeze. Fingers 1 and 2 face to face (spread π/2) with the
+    palm ``TIP_DISTANCES_M`` from the bar."""
     axis = _bar_axis(model, space)
     if axis is None or model.cylinder is None:
         return []
@@ -352,9 +354,10 @@ def square_pinch(
     x = axis if float(axis @ space.seed_rot[:, 0]) >= 0.0 else -axis
     rot = np.stack([x, np.cross(z, x), z], axis=1)
     centre = np.asarray(model.cylinder.position, dtype=np.float64)
-    half = float(model.cylinder.size[1])
-    front = centre + float(np.clip((space.seed_pos - centre) @ axis, -half, half)) * axis - z * model.cylinder.size[0]
-    states = [space.state(rot, front - z * d, spread) for spread in TIP_SPREADS_RAD for d in TIP_DISTANCES_M]
+    half, radius = float(model.cylinder.size[1]), float(model.cylinder.size[0])
+    through = centre + float(np.clip((space.seed_pos - centre) @ axis, -half, half)) * axis
+    states = [space.state(rot, through - z * barrett.tip_depth(radius), TIP_SPREADS_RAD[0])]
+    states += [space.state(rot, through - z * (radius + d), TIP_SPREADS_RAD[1]) for d in TIP_DISTANCES_M]
     return [Proposal("square pinch", s, 0.0) for s in states if space.inside(s)]
 
 

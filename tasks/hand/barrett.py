@@ -323,6 +323,16 @@ def joints_from_eigengrasps(amplitudes: npt.ArrayLike) -> FloatArray:
     return np.stack(columns, axis=-1)
 
 
+def tip_depth(half_width_m: float) -> float:
+    """Depth (m, along +z) at which the inner edges of the closing fingertips (distal joints coupled) come within
+    ``half_width_m`` of the mid plane y = 0 between the thumb and fingers 1 and 2 at spread 0."""
+    proximal = np.linspace(1.0, 2.0, 101)  # the edge from 56 mm out to 32 mm across the mid plane, monotonic
+    joints = np.zeros((len(proximal), 9))
+    joints[:, 7], joints[:, 8] = proximal, coupled_distal(proximal)
+    edge = link_transforms(joints)[:, 9] @ np.array([0.0, -DISTAL_HALF[1], DISTAL_LENGTH, 1.0])
+    return float(np.interp(-half_width_m, edge[:, 1], edge[:, 2]))
+
+
 @dataclass(frozen=True)
 class LinkPoints:
     """Points fixed on the hand's links: ``link`` (m,) index into ``link_transforms`` (0 = palm, i + 1 = link i),

@@ -11,7 +11,7 @@ from scipy.spatial.transform import Rotation
 
 from tasks.arrays import Points
 from tasks.grasp.api import plan_grasp, plan_on_model
-from tasks.grasp.execution import grasp_from_candidate
+from tasks.grasp.execution import contacts_of, execute_pose, grasp_from_candidate, hand_and_object
 from tasks.grasp.object_model import build_object_model
 from tasks.grasp.planner import (
     ACCEPT_C,
@@ -26,6 +26,7 @@ from tasks.grasp.planner import (
     contact_energy,
     ingber_from_uniforms,
     search_space,
+    square_pinch,
     state_energy,
     temperature,
 )
@@ -121,3 +122,24 @@ def test_planner_is_deterministic_for_a_seeded_rng(handle_points: tuple[Points, 
     b = plan_grasp(handle_points[0], seed, PALM_DOWN, np.random.default_rng(5))
     assert a == b
     assert a.quality["force_closure"] is True
+
+
+def test_a_square_pinch_closes_thumb_and_fingers_on_a_thin_bar_at_its_widest() -> None:
+    rng = np.random.default_rng(3)
+    pts, centre = handle_on_plate(0.009, 0.13, 0.04, False, rng)
+    seed_rot = Rotation.from_euler("x", -90, degrees=True).as_matrix()  # approach along +y, palm x along the bar
+    seed_pos = centre - np.array([0.0, 0.009 + 0.04, 0.0])
+    model = build_object_model(pts, rng, viewpoint=seed_pos, approach=seed_rot[:, 2])
+    assert model.cylinder is not None
+    prm = PlannerParams()
+    space = search_space(model, seed_rot, seed_pos, prm)
+    thumb_against_two = [p for p in square_pinch(model, space, prm, rng) if abs(p.state[0] + 1.13) < 1e-6]
+    assert thumb_against_two
+    with hand_and_object(model) as (client, hand, obj):
+        for prop in thumb_against_two:
+            rot, pos = space.pose(prop.state)
+            assert execute_pose(client, hand, obj, model, rot, pos, 0.0, 0.0, prm.mu) is not None
+            normals = contacts_of(client, hand, obj).normals_in
+            assert len(normals) >= 3
+            # opposed across the bar's axis: no squeeze drags the bar towards the palm or pushes it out
+            assert np.all(np.abs(normals @ rot[:, 2]) < math.sin(math.radians(10.0)))
