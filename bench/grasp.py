@@ -46,23 +46,19 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from schemas.descriptor import Grasp
 from tasks.errors import GraspError, PbdError
 from tasks.grasp import execution as closing
-from tasks.grasp.api import part_near, plan_on_model
+from tasks.grasp.api import plan_on_model
 from tasks.grasp.execution import grasp_from_candidate
-from tasks.grasp.object_model import ObjectModel, build_object_model, load_object
+from tasks.grasp.object_model import ObjectModel, load_object
 from tasks.grasp.quality import grasp_quality
 from tasks.grasp.shake import shake_test
 from tasks.hand import barrett
-from tests.grasp.cases.families import family_cases
-from tests.grasp.cases.grasp import Case, hold_program, random_cases, scene_cases
+from tests.grasp.cases.bench import row_setup, seed_cases
+from tests.grasp.cases.grasp import Case
 
 DEVELOPMENT_SEED = 7
 """The development part: the only objects constants may be tuned on."""
 HELD_OUT_SEEDS = (2026, 2027)
 """The held-out part: reported only."""
-SCENE_SEEDS = 1
-RANDOMISED = 15
-FAMILY_OBJECTS = 15
-"""Per benchmark seed: instances of each of the four scenes, randomised objects, family objects (34 objects)."""
 MEDIAN_TARGET_S = 2.0
 P95_TARGET_S = 5.0
 """The issue's planning time targets (seconds per plan, one process)."""
@@ -123,11 +119,7 @@ class Row:
 def run_case(case: Case, kind: str, seed: int, index: int) -> Row:
     """Plan, then the benchmark's hold test (``hold_program`` on the case's exact shapes, both drawn from generators
     of the benchmark's own) of the plan and of the baseline."""
-    part = part_near(case.points, case.seed_pos)
-    approach = Rotation.from_quat(case.seed_quat).as_matrix()[:, 2]
-    model = build_object_model(part, np.random.default_rng(seed), viewpoint=case.seed_pos, approach=approach)
-    truth = case.truth(np.random.default_rng([seed, 3, index]))
-    program = hold_program(np.random.default_rng([seed, 2, index]))
+    model, truth, program = row_setup(case, seed, index)
     t0, c0 = time.perf_counter(), time.process_time()
     try:
         planned = plan_on_model(model, case.seed_pos, case.seed_quat, np.random.default_rng(seed))
@@ -152,16 +144,6 @@ def run_case(case: Case, kind: str, seed: int, index: int) -> Row:
         bool(base is not None and shake_test(truth, base, program).holds),
         source,
     )
-
-
-def seed_cases(seed: int, quick: bool) -> list[tuple[str, Case]]:
-    """The objects of one benchmark seed, each with its kind, all drawn from ``seed``."""
-    rng = np.random.default_rng(seed)
-    scene_seeds = [int(s) for s in rng.integers(0, 1000, SCENE_SEEDS)]
-    scenes = scene_cases(scene_seeds)  # type: ignore[arg-type]
-    randomised = random_cases(6 if quick else RANDOMISED, rng)
-    families = family_cases(10 if quick else FAMILY_OBJECTS, rng)
-    return [("scene", c) for c in scenes] + [("randomised", c) for c in randomised] + [("family", c) for c in families]
 
 
 def run_seed(seed: int, args: argparse.Namespace) -> list[Row]:

@@ -1,5 +1,5 @@
-"""One of ``bench/grasp.py``'s randomised objects planned as the benchmark plans it, with its exact model and hold
-program (shared by the tests that pin a benchmark object the planner once failed)."""
+"""One object planned as ``bench/grasp.py`` plans a row (``tests.grasp.cases.bench``), with its hold test on the
+object's exact shapes (shared by the tests that pin an object the planner once failed)."""
 
 from __future__ import annotations
 
@@ -10,15 +10,11 @@ from scipy.spatial.transform import Rotation
 
 from schemas.descriptor import Grasp
 from tasks.arrays import FloatArray
-from tasks.grasp.api import part_near, plan_on_model
+from tasks.grasp.api import plan_on_model
 from tasks.grasp.execution import grasp_from_candidate
-from tasks.grasp.object_model import build_object_model
 from tasks.grasp.shake import shake_test
-from tests.grasp.cases.families import family_cases
-from tests.grasp.cases.grasp import Case, hold_program, random_cases, scene_cases
-
-SCENE_ROWS = 12
-"""The benchmark's rows before its randomised objects: three seeds of each of the four scenes."""
+from tests.grasp.cases.bench import row_setup, seed_cases
+from tests.grasp.cases.grasp import Case, scene_cases
 
 
 @dataclass(frozen=True)
@@ -32,39 +28,24 @@ class PlannedObject:
     holds: bool
 
 
-def plan_bench_object(seed: int, name: str) -> PlannedObject:
-    """Plan the benchmark's randomised object ``name`` of benchmark seed ``seed`` (21 objects) as ``bench/grasp.py``
-    does and shake the grasp on its exact shapes with the row's program."""
-    cases = random_cases(21, np.random.default_rng(seed))
-    index = next(i for i, c in enumerate(cases) if c.name == name)
-    return _planned(cases[index], seed, SCENE_ROWS + index)
-
-
 def plan_bench_scene(seed: int, name: str) -> PlannedObject:
-    """Plan the benchmark's scene instance ``name`` (``"microwave seed 1"``: scene seeds 0-2) as ``bench/grasp.py``
-    does with benchmark seed ``seed`` and shake the grasp on its exact shapes with the row's program."""
-    cases = scene_cases(range(SCENE_ROWS // 4))
+    """The scene instance ``name`` (``"microwave seed 1"``: scene seeds 0-2, in the rows of ``scene_cases``)
+    planned as row (its place among those twelve) of benchmark seed ``seed``."""
+    cases = scene_cases(range(3))
     row = next(i for i, c in enumerate(cases) if c.name == name)
     return _planned(cases[row], seed, row)
 
 
 def plan_bench_family(seed: int, name: str) -> PlannedObject:
-    """Plan the family object ``name`` of ``bench/grasp.py``'s seed ``seed`` as it does (one scene seed, 15 randomised
-    and 15 family objects drawn in turn from one generator) and shake the grasp on its exact shapes with its program."""
-    rng = np.random.default_rng(seed)
-    rng.integers(0, 1000, 1)  # the scene seed: four scene rows
-    randomised = random_cases(15, rng)
-    cases = family_cases(15, rng)
-    index = next(i for i, c in enumerate(cases) if c.name == name)
-    return _planned(cases[index], seed, 4 + len(randomised) + index)
+    """The object ``name`` of ``bench/grasp.py``'s seed ``seed``, in its row there."""
+    row, case = next((i, c) for i, (_, c) in enumerate(seed_cases(seed)) if c.name == name)
+    return _planned(case, seed, row)
 
 
 def _planned(case: Case, seed: int, row: int) -> PlannedObject:
-    """``case`` planned as ``bench/grasp.py``'s run for ``seed`` plans its row ``row``, and its hold test there."""
-    part = part_near(case.points, case.seed_pos)
-    approach = Rotation.from_quat(case.seed_quat).as_matrix()[:, 2]
-    model = build_object_model(part, np.random.default_rng(seed), viewpoint=case.seed_pos, approach=approach)
+    """``case`` planned as row ``row`` of benchmark seed ``seed``, and its hold test there."""
+    model, exact, program = row_setup(case, seed, row)
     grasp = grasp_from_candidate(plan_on_model(model, case.seed_pos, case.seed_quat, np.random.default_rng(seed)))
-    exact = case.truth(np.random.default_rng([seed, 3, row]))
-    holds = shake_test(exact, grasp, hold_program(np.random.default_rng([seed, 2, row]))).holds
+    approach = Rotation.from_quat(case.seed_quat).as_matrix()[:, 2]
+    holds = shake_test(exact, grasp, program).holds
     return PlannedObject(grasp, approach, np.asarray(case.seed_pos, dtype=np.float64), holds)
