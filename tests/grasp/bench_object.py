@@ -29,8 +29,9 @@ class PlannedObject:
 
 
 def plan_bench_scene(seed: int, name: str) -> PlannedObject:
-    """The scene instance ``name`` (``"microwave seed 1"``: scene seeds 0-2, in the rows of ``scene_cases``)
-    planned as row (its place among those twelve) of benchmark seed ``seed``."""
+    """The scene instance ``name`` (``"microwave seed 1"``: one of the twelve of scene seeds 0-2) planned with
+    benchmark seed ``seed``, its row number its place among those twelve (the benchmark itself draws one scene seed
+    per benchmark seed)."""
     cases = scene_cases(range(3))
     row = next(i for i, c in enumerate(cases) if c.name == name)
     return _planned(cases[row], seed, row)
