@@ -14,7 +14,6 @@ on it hold in the planner's check while on the bottle only the cap turns.
 
 The top face is the plane most of the points nearest the palm lie on (``_ransac_plane``); the side is walked down its
 axis on the points as scanned (voxels average a step's two sides) in slabs while it keeps the rim's radius (``_round``).
-World frame, metres.
 """
 
 from __future__ import annotations
@@ -125,9 +124,8 @@ mm across tilted 10° from square spans 7 mm; a cap's inner faces, which a sampl
 TOP_PLANE_TOLERANCE_M = 0.0005
 """Points within this distance of a plane lie on it (scikit-learn's ``RANSACRegressor``, seeded)."""
 MIN_TOP_POINTS = 20
-"""The top face has at least this many scan points."""
 MAX_TOP_TILT_RAD = math.radians(30.0)
-"""The top face's normal (its points' smallest principal direction) within this angle of the approach."""
+"""The top face has at least this many scan points, its normal within this angle of the approach."""
 SLAB_M = 0.002
 """Depth of each slab walked down the cap's side."""
 STEP_M = 0.0012
@@ -135,8 +133,9 @@ STEP_M = 0.0012
 BESIDE_M = 0.03
 """Points farther than this outside the rim's radius are beside the cap, not its side nor its shoulder."""
 SECTORS = 8
-"""The side is round where, in each of this many sectors around the axis, the slab's outermost point lies within
-``STEP_M`` of the rim's radius (a box's faces lie inside its corners' radius)."""
+EMPTY_SECTORS = 1
+"""The side is round where in each of ``SECTORS`` a slab's outermost point is within ``STEP_M`` of the rim's radius
+(a box's faces lie inside its corners' radius); one may hold none (40 points leave one empty in one slab of 20)."""
 MIN_HEIGHT_M = 0.008
 MAX_HEIGHT_M = 0.06
 MAX_RADIUS_M = 0.05
@@ -210,8 +209,9 @@ def _ransac_plane(points: Points, look: Vector3) -> tuple[Vector3, Vector3] | No
 
 
 def _round(radial: FloatArray, sector: npt.NDArray[np.int64], rim: float) -> bool:
-    """Whether a slab's points (their distances ``radial`` (k,) m from the axis and ``sector`` (k,) indices) reach
-    the rim's radius ``rim`` (m), within ``STEP_M``, in every sector and nowhere go past it by more."""
-    outermost = np.full(SECTORS, -np.inf)
-    np.maximum.at(outermost, sector, radial)
-    return bool(np.all(np.abs(outermost - rim) <= STEP_M))
+    """Whether a slab's points (distances ``radial`` (k,) m from the axis, ``sector`` (k,) indices) reach the rim's
+    radius ``rim`` (m) within ``STEP_M`` in every sector that holds one (``EMPTY_SECTORS`` may hold none)."""
+    outermost = np.full(SECTORS, np.nan)
+    np.fmax.at(outermost, sector, radial)
+    seen = np.isfinite(outermost)
+    return int((~seen).sum()) <= EMPTY_SECTORS and bool(np.all(np.abs(outermost[seen] - rim) <= STEP_M))

@@ -60,6 +60,22 @@ def test_cap_on_a_bottle_is_found_with_its_size_and_axis(tilt_deg: float) -> Non
     assert not inside[points[:, 2] < TOP[2] - CAP_HEIGHT_M - 0.004].any()  # nothing of the neck or below
 
 
+def test_a_cap_side_with_a_sector_left_unsampled_keeps_its_height() -> None:
+    """A sampled side leaves, by chance, one of the eight sectors of a 2 mm slab without a point: here the side has
+    none over 80 degrees round the axis (one whole sector and parts of its neighbours), 6 to 8 mm below the top. The
+    cap still reaches down to the neck (its height within 2 mm), not to where the gap is."""
+    points = bottle_points(np.random.default_rng(3))
+    rel = points - TOP
+    azimuth = np.degrees(np.arctan2(rel[:, 1], rel[:, 0]))
+    radial = np.linalg.norm(rel[:, :2], axis=1)
+    gap = (azimuth > 20.0) & (azimuth < 100.0) & (rel[:, 2] < -0.006) & (rel[:, 2] > -0.008) & (radial > 0.019)
+    down = np.array([0.0, 0.0, -1.0])
+    cap = find_cap(points[~gap], TOP - 0.08 * down, down)
+    assert gap.sum() > 0
+    assert cap is not None
+    assert 2.0 * cap.size[1] == pytest.approx(CAP_HEIGHT_M, abs=0.002)
+
+
 def test_box_can_and_lone_cylinder_have_no_cap() -> None:
     """A box's top is no disk; a can's side goes on past 60 mm; a cylinder with nothing beyond it is the whole
     object."""
