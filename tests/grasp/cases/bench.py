@@ -1,4 +1,4 @@
-"""What ``bench/grasp.py`` draws and plans: the objects of one benchmark seed in their rows, and a row's model,
+"""What ``bench/grasp.py`` draws and sets up: the objects of one benchmark seed in their rows, and a row's model,
 exact shapes and hold program. The benchmark and the tests that pin one of its objects both use these, so a
 pinned object is the benchmark's own."""
 
