@@ -164,9 +164,9 @@ def transfer_descriptor(
         for prim, fit, transform in zip(desc.chain, fits.axes, placed.transforms, strict=True)
     )
     for i, unc in enumerate(uncertainty):
-        if unc.registration_pos_std_m > MAX_AXIS_POS_STD_M or unc.registration_dir_std_rad > MAX_AXIS_DIR_STD_RAD:
+        if unc.registration_pos_worst_m > MAX_AXIS_POS_STD_M or unc.registration_dir_std_rad > MAX_AXIS_DIR_STD_RAD:
             reasons.append(
-                f"uncertain registration: axis {i} is placed within {unc.registration_pos_std_m * 1e3:.1f} mm and "
+                f"uncertain registration: axis {i} is placed within {unc.registration_pos_worst_m * 1e3:.1f} mm and "
                 f"{math.degrees(unc.registration_dir_std_rad):.2f} deg (one sigma; want <= "
                 f"{MAX_AXIS_POS_STD_M * 1e3:g} mm and {math.degrees(MAX_AXIS_DIR_STD_RAD):g} deg)"
             )
@@ -211,6 +211,11 @@ def transfer_descriptor(
                 "neighbourhood_turn_deg": math.degrees(fit.whole_turn_rad),
                 "neighbourhood_pos_std_m": _finite(fit.fit_pos_std_m),
                 "registration_pos_std_m": _finite(unc.registration_pos_std_m),
+                "registration_pos_worst_m": _finite(unc.registration_pos_worst_m),
+                "edges": [
+                    {"measured_mm": e.measured_m * 1e3, "std_mm": e.std_m * 1e3, "agrees": e.agrees} for e in fit.edges
+                ],
+                "edge_shift_mm": float(np.linalg.norm(fit.edge_shift)) * 1e3,
                 "registration_dir_std_rad": _finite(unc.registration_dir_std_rad),
                 "snapped_mm": snapped * 1e3,
                 "region_points": check.region_points,

@@ -22,6 +22,7 @@ import numpy as np
 from schemas.descriptor import Primitive
 from tasks.arrays import FloatArray, Points, Vector3
 from tasks.transfer.clouds import median_spacing
+from tasks.transfer.face_edge import EdgeUpdate, edge_update, model_edges
 from tasks.transfer.face_normals import ModelNormals, model_normals
 from tasks.transfer.local_refine import LocalParams, axis_region, region_size
 from tasks.transfer.registration import surface_normals
@@ -66,15 +67,23 @@ class AxisFit:
     """How far it turned the axis from the whole model's placement, radians."""
     fit_pos_std_m: float = float("nan")
     """The neighbourhood fit's own position sigma (``stretch.line_spread``, before any widening), metres."""
+    edges: tuple[EdgeUpdate, ...] = ()
+    """The faces' edges the axis runs along, as measured in the scan (``face_edge``), in the order applied."""
+
+    @property
+    def edge_shift(self) -> Vector3:
+        """(3,) metres: how far the faces' edges moved the axis point from the fit's placement (target frame)."""
+        out: Vector3 = sum((e.shift for e in self.edges), np.zeros(3))
+        return out
 
     def start(self, pos: Vector3, direction: Vector3) -> Similarity:
         """The similarity carrying the line through ``pos`` along unit ``direction`` (source frame) as this fit
         places it."""
         out = local_similarity(self.fit, pos, direction)
-        if self.direction_from is None:
-            return out
-        turned = local_similarity(self.direction_from, pos, direction)
-        return Similarity(out.scale, turned.rotation, out.apply_point(pos) - out.scale * turned.rotation @ pos)
+        if self.direction_from is not None:
+            turned = local_similarity(self.direction_from, pos, direction)
+            out = Similarity(out.scale, turned.rotation, out.apply_point(pos) - out.scale * turned.rotation @ pos)
+        return Similarity(out.scale, out.rotation, out.translation + self.edge_shift)
 
 
 def lateral_pinning(normals: Points, direction: np.ndarray) -> float:
@@ -96,8 +105,9 @@ def fit_axis(
     radius_m: float,
     threshold_m: float,
 ) -> AxisFit:
-    """The fit carrying ``prim`` (source frame) onto ``target``: its neighbourhood's rigid fit from ``whole``
-    when that pins it, else ``whole``. ``model``: the source's normals and plane weights (``face_normals``);
+    """The fit carrying ``prim`` (source frame) onto ``target`` by point-to-plane pairs: its neighbourhood's
+    rigid fit from ``whole`` when that pins it, else ``whole``. ``model``: the source's normals and plane weights
+    (``face_normals``);
     ``whole_points``: the points, normals and plane weights ``whole`` was fitted with;
     ``grip``: (g, 3) grasped-part points, whose ball joins the neighbourhood of an axis within ``radius_m``."""
     direction = np.asarray(prim.dir, dtype=np.float64)
@@ -170,6 +180,39 @@ def fit_axis(
     return AxisFit(fitted, spread, local=True, whole_shift_m=shift, whole_turn_rad=turn, fit_pos_std_m=own)
 
 
+def with_edges(
+    axis: AxisFit, prim: Primitive, *, source: Points, model: ModelNormals, target: Points, radius_m: float
+) -> AxisFit:
+    """``axis`` updated by the edges of the model's flat faces that ``prim``'s axis runs along (``face_edge``):
+    its placement moved and its position sigma narrowed, or widened where an edge contradicts it."""
+    cov = axis.spread.scaled_cov()
+    if prim.kind != "rotation" or prim.pos is None or cov is None:
+        return axis
+    pos = np.asarray(prim.pos, dtype=np.float64)
+    direction = np.asarray(prim.dir, dtype=np.float64)
+    direction = direction / np.linalg.norm(direction)
+    found = model_edges(source, model, line=(pos, direction), radius_m=radius_m)
+    if not found:
+        return axis
+    carried = axis.start(pos, direction)
+    line_fit = replace(axis.fit, similarity=carried, axes=np.eye(3), factors=np.ones(3), centre=np.zeros(3))
+    updates = []
+    for edge in found:
+        step = edge_update(edge, line_fit, (pos, direction), target, cov)
+        if step is None:
+            continue
+        updates.append(step)
+        cov = step.cov
+        line_fit = replace(
+            line_fit,
+            similarity=Similarity(carried.scale, carried.rotation, line_fit.similarity.translation + step.shift),
+        )
+    if not updates:
+        return axis
+    pos_std = math.sqrt(max(float(np.trace(cov)) / 2.0, 0.0))
+    return replace(axis, spread=replace(axis.spread, pos_std_m=pos_std, pos_cov=cov), edges=tuple(updates))
+
+
 @dataclass(frozen=True)
 class AxisFits:
     """The whole model's stretched fit and, per primitive, its fit and the similarity that carries it."""
@@ -192,8 +235,8 @@ def fit_axes(
     rng: np.random.Generator,
 ) -> AxisFits:
     """The stretched fit of ``source`` onto ``target`` from the registration's ``best``, then every primitive's
-    own fit (``fit_axis``); ``threshold_m`` and ``spacing_m``: the registration's final correspondence threshold
-    and the target's median point spacing."""
+    own fit (``fit_axis``, then ``with_edges``); ``threshold_m`` and ``spacing_m``: the registration's final
+    correspondence threshold and the target's median point spacing."""
     model = model_normals(smoothed_normals(source, surface_normals(source, median_spacing(source))))
     target_normals = surface_normals(target, spacing_m)
     pick = rng.permutation(source.shape[0])[:STRETCH_POINTS]
@@ -209,17 +252,24 @@ def fit_axes(
     )
     _, radius = region_size(source, LocalParams())
     fits = tuple(
-        fit_axis(
+        with_edges(
+            fit_axis(
+                prim,
+                source,
+                model,
+                target,
+                target_normals,
+                whole=whole,
+                whole_points=sample,
+                grip=grip,
+                radius_m=radius,
+                threshold_m=threshold_m,
+            ),
             prim,
-            source,
-            model,
-            target,
-            target_normals,
-            whole=whole,
-            whole_points=sample,
-            grip=grip,
+            source=source,
+            model=model,
+            target=target,
             radius_m=radius,
-            threshold_m=threshold_m,
         )
         for prim in chain
     )

@@ -306,6 +306,26 @@ class FitSpread:
     rms_m: float
     """RMS point-to-plane residual of the pairs, metres."""
     pairs: int
+    pos_cov: FloatArray | None = None
+    """(3, 3) covariance of the carried axis point across the axis, metres squared (its trace over 2 is
+    ``pos_std_m`` squared, before any widening); None when no pair informs."""
+
+    def scaled_cov(self) -> FloatArray | None:
+        """``pos_cov`` scaled to the (possibly widened) ``pos_std_m``; None without one."""
+        if self.pos_cov is None or not math.isfinite(self.pos_std_m):
+            return None
+        own = math.sqrt(max(float(np.trace(self.pos_cov)) / 2.0, 1e-30))
+        out: FloatArray = self.pos_cov * (self.pos_std_m / own) ** 2
+        return out
+
+    @property
+    def worst_pos_std_m(self) -> float:
+        """The sigma of the axis point in its worst-placed direction across the axis, metres (``pos_std_m`` times
+        the square root of two without a covariance: both directions as loose as the two together)."""
+        cov = self.scaled_cov()
+        if cov is None:
+            return self.pos_std_m * math.sqrt(2.0)
+        return math.sqrt(max(float(np.linalg.eigvalsh(cov)[-1]), 0.0))
 
 
 def line_spread(
@@ -389,6 +409,7 @@ def line_spread(
         float(np.sqrt(max(np.trace(turn), 0.0) / 2.0)),
         rms,
         int(ok.sum()),
+        cov_pos,
     )
 
 

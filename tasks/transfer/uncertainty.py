@@ -20,8 +20,8 @@ from tasks.transfer.registration_types import Registration
 
 MAX_AXIS_POS_STD_M = 1e-3
 MAX_AXIS_DIR_STD_RAD = math.radians(1.0)
-"""A registration placing an axis more loosely than this (one sigma) is refused: three sigmas must stay within
-the transferred axis's worst-case tolerance of 3 mm and 3 degrees."""
+"""A registration placing an axis more loosely than this (one sigma, in its worst-placed direction across the axis)
+is refused: three sigmas must stay within the transferred axis's worst-case tolerance of 3 mm and 3 degrees."""
 
 
 @dataclass(frozen=True)
@@ -32,6 +32,8 @@ class AxisUncertainty:
     learned_dir_std_rad: float | None
     registration_pos_std_m: float
     registration_dir_std_rad: float
+    registration_pos_worst_m: float = float("nan")
+    """The registration's position sigma in its worst-placed direction across the axis (``FitSpread``), metres."""
 
     @property
     def pos_std_m(self) -> float:
@@ -57,6 +59,7 @@ def axis_uncertainty(prim: Primitive, fit: AxisFit, scale: float) -> AxisUncerta
         _number(prim.fit.get("dir_std_rad")),
         fit.spread.pos_std_m if prim.kind == "rotation" else 0.0,
         fit.spread.dir_std_rad,
+        fit.spread.worst_pos_std_m if prim.kind == "rotation" else 0.0,
     )
 
 
