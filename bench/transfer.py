@@ -203,8 +203,9 @@ def flagged(
 
 
 def summary(rows: list[Outcome]) -> tuple[float, float, float, float]:
-    """(median deg, worst deg, median mm, worst mm); mm over the rows that have an axis point."""
-    deg = np.array([r.deg for r in rows])
+    """(median deg, worst deg, median mm, worst mm); degrees over the rows placed, mm over those with an axis
+    point."""
+    deg = np.array([r.deg for r in rows if np.isfinite(r.deg)] or [np.nan])
     mm = np.array([r.mm for r in rows if np.isfinite(r.mm)] or [np.nan])
     return float(np.median(deg)), float(deg.max()), float(np.median(mm)), float(mm.max())
 
@@ -228,13 +229,25 @@ def run_set(pairs: list[tuple[int, Pair]]) -> Results:
     res = Results([], [], [], [], [], [])
     for i, pair in pairs:
         t0 = time.process_time()
-        reg = register_models(pair.source, pair.target, focus=pair.focus, grip=pair.grip, rng=np.random.default_rng(i))
-        axes = placed(reg, (pair.source, pair.target), pair.chain, pair.grip)
-        res.cpu_s += time.process_time() - t0
-        res.ours.append(chain_error(axes.transforms, pair.chain, pair.truth_chain))
-        res.glob.append(chain_error(reg.best.transform, pair.chain, pair.truth_chain))
-        res.warned.append(flagged(reg, pair.chain, axes, (pair.source, pair.target)))
-        res.good.append(res.ours[-1].deg <= GOOD_DEG and not res.ours[-1].mm > GOOD_MM)
+        try:
+            reg = register_models(
+                pair.source, pair.target, focus=pair.focus, grip=pair.grip, rng=np.random.default_rng(i)
+            )
+        except PbdError as err:  # refused outright (no alignment at a similar object's scale): no axis placed
+            res.cpu_s += time.process_time() - t0
+            res.ours.append(Outcome(float("nan"), float("nan")))
+            res.glob.append(Outcome(float("nan"), float("nan")))
+            res.warned.append(f"refused: {err}")
+            res.good.append(False)
+            fitness = float("nan")
+        else:
+            axes = placed(reg, (pair.source, pair.target), pair.chain, pair.grip)
+            res.cpu_s += time.process_time() - t0
+            res.ours.append(chain_error(axes.transforms, pair.chain, pair.truth_chain))
+            res.glob.append(chain_error(reg.best.transform, pair.chain, pair.truth_chain))
+            res.warned.append(flagged(reg, pair.chain, axes, (pair.source, pair.target)))
+            res.good.append(res.ours[-1].deg <= GOOD_DEG and not res.ours[-1].mm > GOOD_MM)
+            fitness = reg.best.fitness
         res.icp.append(chain_error(plain_icp(pair.source, pair.target), pair.chain, pair.truth_chain))
         rigid_true = pair.rigid_truth
         from_true = plain_icp(rigid_true.apply_points(pair.source), pair.target).compose(rigid_true)
@@ -242,7 +255,7 @@ def run_set(pairs: list[tuple[int, Pair]]) -> Results:
         o, c, t = res.ours[-1], res.icp[-1], res.icp_true[-1]
         print(
             f"{i:3d} {pair.label:22} {pair.truth.scale:5.2f} {pair.keep:4.2f} {'view' if pair.view else 'cut':4} | "
-            f"{o.deg:8.2f} {o.mm:7.2f} {reg.best.fitness:4.2f} | {c.deg:8.1f} {c.mm:7.1f} | "
+            f"{o.deg:8.2f} {o.mm:7.2f} {fitness:4.2f} | {c.deg:8.1f} {c.mm:7.1f} | "
             f"{t.deg:12.2f} {t.mm:6.2f} | "
             f"{time.process_time() - t0:4.1f}{f'  WARNED ({res.warned[-1]})' if res.warned[-1] else ''}",
             flush=True,

@@ -9,7 +9,9 @@ whole model's fit places the axis. Each placement comes with its spread (``stret
 model's plane normals: ``face_normals``), widened to cover how far the neighbourhood moved the axis from the whole
 model's placement when the two fits contradict each other (``AGREEMENT_SIGMAS``). The neighbourhood's fit starts
 from the whole model's, so before its own pairs it knows the axis as well as the whole model placed it (its
-translation prior is the whole model's sigma there). Lengths in metres.
+translation prior is the whole model's sigma there). Last, the edges of the model's flat faces that a rotation's
+axis runs along (a door's front face at its hinge) are located in the scan and update the placement and its
+covariance (``with_edges``, ``face_edge``). Lengths in metres.
 """
 
 from __future__ import annotations
