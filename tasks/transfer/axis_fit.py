@@ -197,18 +197,16 @@ def with_edges(
     if not found:
         return axis
     carried = axis.start(pos, direction)
-    line_fit = replace(axis.fit, similarity=carried, axes=np.eye(3), factors=np.ones(3), centre=np.zeros(3))
-    updates = []
+    updates: list[EdgeUpdate] = []
+    shift = np.zeros(3)
     for edge in found:
+        moved = Similarity(carried.scale, carried.rotation, carried.translation + shift)
+        line_fit = replace(axis.fit, similarity=moved, axes=np.eye(3), factors=np.ones(3), centre=np.zeros(3))
         step = edge_update(edge, line_fit, (pos, direction), target, cov)
         if step is None:
             continue
         updates.append(step)
-        cov = step.cov
-        line_fit = replace(
-            line_fit,
-            similarity=Similarity(carried.scale, carried.rotation, line_fit.similarity.translation + step.shift),
-        )
+        cov, shift = step.cov, shift + step.shift
     if not updates:
         return axis
     pos_std = math.sqrt(max(float(np.trace(cov)) / 2.0, 0.0))

@@ -30,6 +30,7 @@ import numpy as np
 from scipy.special import ndtr
 
 from tasks.arrays import FloatArray, Points, Vector3
+from tasks.fit.noise import MAD_TO_SIGMA
 from tasks.transfer.face_normals import FLAT_DEG, ModelNormals
 from tasks.transfer.stretch import MAX_STRETCH, Stretched, carried_normals
 
@@ -58,6 +59,8 @@ MIN_WIDTH_M = 0.020
 ONE_SIDED = 0.05
 """A face the axis bounds lies on one side of it: at most 5 % of its points about the axis beyond (noise, a
 neighbouring face's border)."""
+MIN_NOISE_M = 1e-4
+"""A face's points are never taken as blurred by less than 0.1 mm (the finest scanner noise pbd meets)."""
 PROFILE_STEP_M = 1e-4
 """The edge's likelihood is profiled on a 0.1 mm grid about its best value (a tenth of a fine scan's noise)..."""
 PROFILE_REACH_M = 0.008
@@ -187,7 +190,7 @@ def locate_edge(s: FloatArray, depth: FloatArray, window: tuple[float, float], n
 def _plane_noise(depth: FloatArray) -> tuple[float, float]:
     """The plane's offset (median) and its points' noise (scaled median absolute deviation) from ``depth``."""
     centre = float(np.median(depth))
-    return centre, max(1.4826 * float(np.median(np.abs(depth - centre))), 1e-4)
+    return centre, max(MAD_TO_SIGMA * float(np.median(np.abs(depth - centre))), MIN_NOISE_M)
 
 
 def model_edges(
@@ -210,8 +213,8 @@ def model_edges(
     left = near.copy()
     while int(left.sum()) >= MIN_FACE_POINTS:
         cand = normals[left]
-        counts = (np.abs(cand @ cand[:: max(1, len(cand) // 200)].T) >= face_cos).sum(axis=0)
-        seed = cand[:: max(1, len(cand) // 200)][int(counts.argmax())]
+        seeds = cand[:: max(1, len(cand) // 200)]
+        seed = seeds[int((np.abs(cand @ seeds.T) >= face_cos).sum(axis=0).argmax())]
         member = np.abs(normals @ seed) >= face_cos
         left &= ~member
         normal = seed - (seed @ direction) * direction

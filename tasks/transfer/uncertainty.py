@@ -32,7 +32,7 @@ class AxisUncertainty:
     learned_dir_std_rad: float | None
     registration_pos_std_m: float
     registration_dir_std_rad: float
-    registration_pos_worst_m: float = float("nan")
+    registration_pos_worst_m: float
     """The registration's position sigma in its worst-placed direction across the axis (``FitSpread``), metres."""
 
     @property
