@@ -667,9 +667,19 @@ def main() -> None:
     parser.add_argument("--family", choices=FAMILIES, action="append", help="only this family (repeatable)")
     parser.add_argument("--held-out-only", action="store_true", help="with --families: the held-out part alone")
     parser.add_argument("--dev-only", action="store_true", help="with --families: the development part alone")
+    parser.add_argument(
+        "--extra-seeds", metavar="A-B", help="with --families: further development pairs A..B only (not held out)"
+    )
     args = parser.parse_args()
     if args.families:
         families = tuple(args.family or FAMILIES)
+        if args.extra_seeds is not None:
+            first, last = (int(v) for v in args.extra_seeds.split("-"))
+            extra = tuple(range(first, last + 1))
+            if set(extra) & set(FAMILY_HELDOUT_SEEDS):
+                parser.error("--extra-seeds: the held-out seeds 1000-1019 are not development pairs")
+            run_families(extra, "further development pairs", families)
+            return
         count = 1 if args.quick else args.pairs
         dev, held_out = FAMILY_DEV_SEEDS[:count], FAMILY_HELDOUT_SEEDS[:count]
         if args.only is not None:
