@@ -160,8 +160,8 @@ def transfer_descriptor(
             f"and {spread_m * 1e3:.1f} mm (want <= {MAX_SPREAD_DEG:g} deg and {MAX_SPREAD_MM:g} mm)"
         )
     uncertainty = tuple(
-        axis_uncertainty(prim, fit, transform.scale)
-        for prim, fit, transform in zip(desc.chain, fits.axes, placed.transforms, strict=True)
+        axis_uncertainty(prim, fit, t.scale, symmetry)
+        for prim, fit, t, symmetry in zip(desc.chain, fits.axes, placed.transforms, placed.symmetry, strict=True)
     )
     for i, unc in enumerate(uncertainty):
         if unc.registration_pos_worst_m > MAX_AXIS_POS_STD_M or unc.registration_dir_std_rad > MAX_AXIS_DIR_STD_RAD:

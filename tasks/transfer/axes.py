@@ -27,7 +27,7 @@ from tasks.transfer.clouds import median_spacing
 from tasks.transfer.local_refine import LocalCheck, LocalParams, check_axis, region_size
 from tasks.transfer.registration import surface_normals
 from tasks.transfer.similarity import Similarity, point_line_distance
-from tasks.transfer.symmetry_axis import fit_symmetry_axis
+from tasks.transfer.symmetry_axis import SymmetryFit, fit_symmetry_axis
 
 SYMMETRIC_OFFSET_FRAC = 0.01
 """The source region is a body of revolution when its fitted symmetry axis lies within 1 % of the region radius
@@ -48,12 +48,38 @@ class PlacedAxes:
     transforms: tuple[Similarity, ...]
     snapped_m: tuple[float, ...]
     """How far each axis was moved onto the target's symmetry axis, metres (0: not moved)."""
+    symmetry: tuple[SymmetryFit | None, ...]
+    """Per primitive: the target's symmetry fit that placed its axis (None: not moved onto one)."""
     checks: tuple[LocalCheck, ...]
     grasp_transform: Similarity
     warnings: tuple[str, ...]
+    normals: CloudNormals
 
 
-def _snap(prim: Primitive, source: Points, target: Points, best: Similarity, radius: float) -> Similarity | None:
+@dataclass(frozen=True)
+class Snap:
+    """A carried axis moved onto the target's symmetry axis: the moved transform and the fit that placed it."""
+
+    transform: Similarity
+    fit: SymmetryFit
+
+
+@dataclass(frozen=True)
+class CloudNormals:
+    """Unit surface normals (any sign) of the source and of the target cloud, one per point."""
+
+    source: Points
+    target: Points
+
+    @classmethod
+    def of(cls, source: Points, target: Points, target_spacing_m: float) -> CloudNormals:
+        """Normals estimated at each cloud's point spacing (the target's given, metres)."""
+        return cls(surface_normals(source, median_spacing(source)), surface_normals(target, target_spacing_m))
+
+
+def _snap(
+    prim: Primitive, source: Points, target: Points, *, normals: CloudNormals, best: Similarity, radius: float
+) -> Snap | None:
     """``best`` translated so the carried axis lies on the target's symmetry axis, or None."""
     if prim.kind != "rotation" or prim.pos is None:
         return None
@@ -61,19 +87,22 @@ def _snap(prim: Primitive, source: Points, target: Points, best: Similarity, rad
     direction = np.asarray(prim.dir, dtype=np.float64)
     direction = direction / np.linalg.norm(direction)
     loss = max(5e-4, LOSS_SPACINGS * median_spacing(source))
-    own = fit_symmetry_axis(source, pos, direction, radius, loss_scale_m=loss)
+    own = fit_symmetry_axis(source, normals.source, pos, direction, radius, loss_scale_m=loss)
     if own is None or own.offset_m > SYMMETRIC_OFFSET_FRAC * radius:
         return None
     carried, carried_dir = best.apply_point(pos), best.apply_direction(direction)
     centre = carried
+    fitted: SymmetryFit | None = None
     for _ in range(SNAP_ROUNDS):  # the region about a misplaced axis cuts the part unevenly: fit again about the fit
-        fitted = fit_symmetry_axis(target, centre, carried_dir, radius * best.scale, loss_scale_m=loss * best.scale)
+        fitted = fit_symmetry_axis(
+            target, normals.target, centre, carried_dir, radius * best.scale, loss_scale_m=loss * best.scale
+        )
         if fitted is None:
             return None
         centre = fitted.pos
-    if float(np.linalg.norm(centre - carried)) > MAX_SNAP_FRAC * radius * best.scale:
+    if fitted is None or float(np.linalg.norm(centre - carried)) > MAX_SNAP_FRAC * radius * best.scale:
         return None
-    return Similarity(best.scale, best.rotation, best.translation + (centre - carried))
+    return Snap(Similarity(best.scale, best.rotation, best.translation + (centre - carried)), fitted)
 
 
 def place_axes(
@@ -95,17 +124,18 @@ def place_axes(
     primitive to start from instead of ``best`` (the stretched fit's, ``stretch.local_similarity``)."""
     params = params or LocalParams()
     span, radius = region_size(source, params)
-    normals = surface_normals(target, spacing_m)
-    normals_s = surface_normals(source, median_spacing(source))
+    clouds = CloudNormals.of(source, target, spacing_m)
     transforms: list[Similarity] = []
     snapped: list[float] = []
+    fits: list[SymmetryFit | None] = []
     checks: list[LocalCheck] = []
     grasp_transform: Similarity | None = None
     for i, prim in enumerate(chain):
         start = starts[i] if starts is not None else best
-        moved = _snap(prim, source, target, start, radius)
-        transform = moved if moved is not None else start
+        moved = _snap(prim, source, target, normals=clouds, best=start, radius=radius)
+        transform = moved.transform if moved is not None else start
         transforms.append(transform)
+        fits.append(moved.fit if moved is not None else None)
         shift = float(np.linalg.norm(transform.translation - start.translation))
         snapped.append(shift)
         check = check_axis(
@@ -113,8 +143,8 @@ def place_axes(
             i,
             source,
             target,
-            normals,
-            source_normals=normals_s,
+            clouds.target,
+            source_normals=clouds.source,
             best=transform,
             grip=grip,
             threshold=threshold_m,
@@ -129,7 +159,9 @@ def place_axes(
         if grasp_transform is None and near_grip:
             grasp_transform = transform
     warnings = tuple(c.warning for c in checks if c.warning is not None)
-    return PlacedAxes(tuple(transforms), tuple(snapped), tuple(checks), grasp_transform or best, warnings)
+    return PlacedAxes(
+        tuple(transforms), tuple(snapped), tuple(fits), tuple(checks), grasp_transform or best, warnings, clouds
+    )
 
 
 def snapped_transforms(
@@ -137,6 +169,8 @@ def snapped_transforms(
     source: Points,
     target: Points,
     transform: Similarity | tuple[Similarity, ...],
+    *,
+    normals: CloudNormals,
     params: LocalParams | None = None,
 ) -> tuple[Similarity, ...]:
     """One transform per primitive: ``transform`` (or the primitive's own start), moved onto the target's
@@ -144,7 +178,11 @@ def snapped_transforms(
     params = params or LocalParams()
     _, radius = region_size(source, params)
     starts = transform if isinstance(transform, tuple) else (transform,) * len(chain)
-    return tuple(_snap(prim, source, target, t, radius) or t for prim, t in zip(chain, starts, strict=True))
+    out = []
+    for prim, start in zip(chain, starts, strict=True):
+        moved = _snap(prim, source, target, normals=normals, best=start, radius=radius)
+        out.append(moved.transform if moved is not None else start)
+    return tuple(out)
 
 
 def placed_spread(
@@ -156,5 +194,5 @@ def placed_spread(
 ) -> tuple[float, float]:
     """Largest change of any placed axis between ``placed`` and each alternative alignment (or per-primitive
     starts) placed the same way: (degrees, metres point to line)."""
-    others = [snapped_transforms(chain, source, target, alt) for alt in alternatives]
+    others = [snapped_transforms(chain, source, target, alt, normals=placed.normals) for alt in alternatives]
     return axis_spread(chain, placed.transforms, others)

@@ -7,11 +7,17 @@ bottles). So for a rotation whose source region is itself symmetric about its ax
 to the target region's own symmetry axis: points are binned in slices along the (carried) direction and one
 centre shared by all slices is fitted with a radius per slice (geometric circle fit, soft-L1 loss).
 
+Only the body's sides enter the fit: points whose surface normal is within ``SIDE_DEG`` of square to the axis. A
+face across the axis (a cap's top, a shoulder) puts points at every radius of its slice, and a scan that sees
+one side of it pulls the slice's circle towards that side (1.4-1.9 mm at a cap's top with its top face in).
+The centre's covariance comes from the fit's Jacobian and its residuals, so the placement carries its own sigma.
+
 Lengths in metres; ``pos`` and ``direction`` in the frame of the points.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,6 +32,9 @@ SLICES = 12
 """Slices along the axis of the region (each gets its own radius)."""
 MIN_SLICE_POINTS = 6
 """Slices with fewer points are left out of the fit."""
+SIDE_DEG = 30.0
+"""A point is on the body's side when its normal is within 30 degrees of square to the axis (a cylinder, a
+gentle taper); a top, a bottom or a steep shoulder is not on any slice's circle."""
 
 
 @dataclass(frozen=True)
@@ -41,6 +50,19 @@ class SymmetryFit:
     inliers: float
     """Fraction of the fitted points within 3 loss scales of their slice's circle."""
     points: int
+    pos_cov: FloatArray
+    """(3, 3) covariance of ``pos`` across the axis (from the fit's Jacobian and its inliers' residuals), metres
+    squared."""
+
+    @property
+    def pos_std_m(self) -> float:
+        """RMS sigma of ``pos`` over the two directions across the axis, metres."""
+        return math.sqrt(max(float(np.trace(self.pos_cov)) / 2.0, 0.0))
+
+    @property
+    def worst_pos_std_m(self) -> float:
+        """Sigma of ``pos`` in its worst-placed direction across the axis, metres."""
+        return math.sqrt(max(float(np.linalg.eigvalsh(self.pos_cov)[-1]), 0.0))
 
 
 def _basis(direction: Vector3) -> tuple[Vector3, Vector3]:
@@ -53,11 +75,13 @@ def _basis(direction: Vector3) -> tuple[Vector3, Vector3]:
 
 
 def fit_symmetry_axis(
-    points: Points, pos: Vector3, direction: Vector3, radius_m: float, *, loss_scale_m: float
+    points: Points, normals: Points, pos: Vector3, direction: Vector3, radius_m: float, *, loss_scale_m: float
 ) -> SymmetryFit | None:
-    """The symmetry axis (parallel to unit ``direction``) of the points within ``radius_m`` of ``pos`` and of the
-    line through it; None when too few points. ``loss_scale_m``: the soft-L1 scale (about the surface noise)."""
+    """The symmetry axis (parallel to unit ``direction``) of the side points (``normals``: their unit normals, any
+    sign) within ``radius_m`` of ``pos`` and of the line through it; None when too few points. ``loss_scale_m``:
+    the soft-L1 scale (about the surface noise)."""
     sel = axis_region(points, pos, direction, radius_m)
+    sel &= np.abs(normals @ direction) <= math.sin(math.radians(SIDE_DEG))
     if int(sel.sum()) < MIN_POINTS:
         return None
     rel = points[sel] - pos
@@ -87,4 +111,9 @@ def fit_symmetry_axis(
     inlier = np.abs(res) <= 3.0 * loss_scale_m
     rms = float(np.sqrt(np.mean(res[inlier] ** 2))) if inlier.any() else float("inf")
     centre = pos + cx * u + cy * v
-    return SymmetryFit(centre, float(np.hypot(cx, cy)), rms, float(inlier.mean()), int(x.shape[0]))
+    dof = max(int(inlier.sum()) - result.x.shape[0], 1)
+    variance = float(np.sum(res[inlier] ** 2)) / dof if inlier.any() else float("inf")
+    cov_uv = np.linalg.pinv(result.jac.T @ result.jac)[:2, :2] * variance
+    basis = np.column_stack([u, v])
+    pos_cov = basis @ cov_uv @ basis.T
+    return SymmetryFit(centre, float(np.hypot(cx, cy)), rms, float(inlier.mean()), int(x.shape[0]), pos_cov)

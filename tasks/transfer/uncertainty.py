@@ -2,7 +2,8 @@
 
 A transferred primitive's ``fit`` block holds, besides what learning put there, ``learned_pos_std_m`` and
 ``learned_dir_std_rad`` (the learned axis's own, its position scaled onto the target), ``registration_pos_std_m``
-and ``registration_dir_std_rad`` (how loosely the registration places the axis, ``stretch.line_spread``), and
+and ``registration_dir_std_rad`` (how loosely the registration places the axis: ``stretch.line_spread``, or for an
+axis moved onto the target's symmetry axis that fit's own covariance across it), and
 ``pos_std_m`` and ``dir_std_rad`` replaced by their root sum of squares (independent errors). One sigma; metres
 and radians, target frame.
 """
@@ -17,6 +18,7 @@ from schemas.descriptor import Primitive
 from tasks.transfer.axis_fit import AxisFit
 from tasks.transfer.carry import carry_primitive
 from tasks.transfer.registration_types import Registration
+from tasks.transfer.symmetry_axis import SymmetryFit
 
 MAX_AXIS_POS_STD_M = 1e-3
 MAX_AXIS_DIR_STD_RAD = math.radians(1.0)
@@ -50,16 +52,22 @@ def _number(value: object) -> float | None:
     return float(value) if isinstance(value, int | float) and math.isfinite(value) else None
 
 
-def axis_uncertainty(prim: Primitive, fit: AxisFit, scale: float) -> AxisUncertainty:
+def axis_uncertainty(prim: Primitive, fit: AxisFit, scale: float, symmetry: SymmetryFit | None) -> AxisUncertainty:
     """The uncertainty of ``prim`` (source frame, its ``fit`` block from learning) carried at ``scale`` by
-    ``fit``."""
+    ``fit``, its point placed by ``symmetry`` when not None (the direction stays the fit's)."""
     learned_pos = _number(prim.fit.get("pos_std_m"))
+    if prim.kind != "rotation":
+        pos_std, worst = 0.0, 0.0
+    elif symmetry is not None:
+        pos_std, worst = symmetry.pos_std_m, symmetry.worst_pos_std_m
+    else:
+        pos_std, worst = fit.spread.pos_std_m, fit.spread.worst_pos_std_m
     return AxisUncertainty(
         learned_pos * scale if learned_pos is not None else None,
         _number(prim.fit.get("dir_std_rad")),
-        fit.spread.pos_std_m if prim.kind == "rotation" else 0.0,
+        pos_std,
         fit.spread.dir_std_rad,
-        fit.spread.worst_pos_std_m if prim.kind == "rotation" else 0.0,
+        worst,
     )
 
 

@@ -22,6 +22,7 @@ from tasks.transfer.stretch import (
     smoothed_normals,
     stretch_icp,
 )
+from tasks.transfer.symmetry_axis import SymmetryFit
 from tasks.transfer.uncertainty import axis_uncertainty, with_uncertainty
 from tests.transfer import shapes
 
@@ -88,7 +89,7 @@ def test_uncertainty_combines_learned_and_registration() -> None:
     prim = Primitive(
         "rotation", (-0.2, -0.15, 0.3), (0.0, 0.0, 1.0), 1.0, fit={"pos_std_m": 0.002, "dir_std_rad": 0.01}
     )
-    unc = axis_uncertainty(prim, AxisFit(fitted, spread, local=False), scale=1.5)
+    unc = axis_uncertainty(prim, AxisFit(fitted, spread, local=False), scale=1.5, symmetry=None)
     assert unc.learned_pos_std_m == pytest.approx(0.003)
     assert unc.pos_std_m == pytest.approx(math.hypot(0.003, spread.pos_std_m))
     assert unc.dir_std_rad == pytest.approx(math.hypot(0.01, spread.dir_std_rad))
@@ -97,9 +98,18 @@ def test_uncertainty_combines_learned_and_registration() -> None:
     assert out.fit["registration_pos_std_m"] == pytest.approx(spread.pos_std_m)
     assert out.fit["learned_dir_std_rad"] == pytest.approx(0.01)
     # a primitive learned without an uncertainty keeps the registration's alone
-    bare = axis_uncertainty(Primitive("translation", None, (0.0, 1.0, 0.0), 0.1), AxisFit(fitted, spread, False), 1.0)
+    bare = axis_uncertainty(
+        Primitive("translation", None, (0.0, 1.0, 0.0), 0.1), AxisFit(fitted, spread, False), 1.0, symmetry=None
+    )
     assert bare.learned_dir_std_rad is None and bare.dir_std_rad == pytest.approx(spread.dir_std_rad)
     assert "pos_std_m" not in with_uncertainty(Primitive("translation", None, (0.0, 1.0, 0.0), 0.1), bare).fit
+    # an axis moved onto the target's symmetry axis is placed as loosely as that fit, not the whole fit
+    cov = np.diag([4e-8, 1e-8, 0.0])
+    symmetry = SymmetryFit(np.zeros(3), 0.001, 0.001, 0.9, 200, cov)
+    snapped = axis_uncertainty(prim, AxisFit(fitted, spread, local=False), scale=1.5, symmetry=symmetry)
+    assert snapped.registration_pos_worst_m == pytest.approx(2e-4)
+    assert snapped.registration_pos_std_m == pytest.approx(math.sqrt(2.5e-8))
+    assert snapped.registration_dir_std_rad == pytest.approx(spread.dir_std_rad)
 
 
 def test_stretch_icp_without_facing_pairs_keeps_its_start() -> None:
