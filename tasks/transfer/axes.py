@@ -4,8 +4,9 @@ The global similarity carries every primitive first. Then, per primitive with an
 
 1. A rotation whose source region is a body of revolution about its own axis (a cap: the symmetry fit on the
    source finds its axis within ``SYMMETRIC_OFFSET_FRAC`` of the region radius) is moved across onto the target
-   region's symmetry axis (``symmetry_axis``), when that lies within ``MAX_SNAP_FRAC`` of the radius; the
-   primitive's transform is then the global one translated by that move.
+   region's symmetry axis (``symmetry_axis``, fitted to the body's sides), when that lies within ``MAX_SNAP_FRAC``
+   of the radius; the primitive's transform is then the global one translated by that move, and the symmetry fit's
+   covariance is the axis point's sigma.
 2. The local check (``local_refine``) looks at the axis under that transform and warns when the target about
    it is not explained or the region's own refinement disagrees; a snapped axis is not judged by it (two
    bottles of other proportions explain only 0.4-0.7 of each other about a correctly placed cap axis).
