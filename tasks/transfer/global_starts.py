@@ -84,7 +84,6 @@ def scored_candidates(
     starts = pca_starts(cloud_points(src), cloud_points(tgt))
     if init is not None:
         starts.insert(0, ("init", init))
-    o3d.utility.random.seed(int(rng.integers(0, 2**31 - 1)))
     kd = o3d.geometry.KDTreeSearchParamHybrid(radius=FPFH_RADIUS, max_nn=100)
     f_src = reg.compute_fpfh_feature(src, kd)  # type: ignore[call-arg] # stub lists optional indices
     f_tgt = reg.compute_fpfh_feature(tgt, kd)  # type: ignore[call-arg] # stub lists optional indices
@@ -93,6 +92,9 @@ def scored_candidates(
         reg.CorrespondenceCheckerBasedOnDistance(3.0 * COARSE_VOXEL),
     ]
     for k in range(params.ransac_runs):
+        # Seeded right before each run: open3d's RANSAC draws from a generator that an earlier call in the same
+        # process leaves in another state, so one seed for both runs made a transfer depend on what ran before it.
+        o3d.utility.random.seed(int(rng.integers(0, 2**31 - 1)))
         result = reg.registration_ransac_based_on_feature_matching(
             src,
             tgt,
