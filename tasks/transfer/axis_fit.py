@@ -33,6 +33,7 @@ from tasks.transfer.stretch import (
     STRETCH_POINTS,
     FitSpread,
     Stretched,
+    across_std,
     box_axes,
     fit_stretch,
     line_spread,
@@ -209,8 +210,7 @@ def with_edges(
         cov, shift = step.cov, shift + step.shift
     if not updates:
         return axis
-    pos_std = math.sqrt(max(float(np.trace(cov)) / 2.0, 0.0))
-    return replace(axis, spread=replace(axis.spread, pos_std_m=pos_std, pos_cov=cov), edges=tuple(updates))
+    return replace(axis, spread=replace(axis.spread, pos_std_m=across_std(cov), pos_cov=cov), edges=tuple(updates))
 
 
 @dataclass(frozen=True)

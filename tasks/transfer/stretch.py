@@ -295,6 +295,16 @@ def stretch_icp(
     return current
 
 
+def across_std(cov: FloatArray) -> float:
+    """The RMS sigma over the two directions across an axis of ``cov`` ((3, 3), across the axis only)."""
+    return math.sqrt(max(float(np.trace(cov)) / 2.0, 0.0))
+
+
+def worst_std(cov: FloatArray) -> float:
+    """The sigma of ``cov`` ((3, 3)) in its worst-placed direction."""
+    return math.sqrt(max(float(np.linalg.eigvalsh(cov)[-1]), 0.0))
+
+
 @dataclass(frozen=True)
 class FitSpread:
     """How well a fit pins a carried line: standard deviations from the fit's residuals (target frame)."""
@@ -314,7 +324,7 @@ class FitSpread:
         """``pos_cov`` scaled to the (possibly widened) ``pos_std_m``; None without one."""
         if self.pos_cov is None or not math.isfinite(self.pos_std_m):
             return None
-        own = math.sqrt(max(float(np.trace(self.pos_cov)) / 2.0, 1e-30))
+        own = max(across_std(self.pos_cov), 1e-15)
         out: FloatArray = self.pos_cov * (self.pos_std_m / own) ** 2
         return out
 
@@ -325,7 +335,7 @@ class FitSpread:
         cov = self.scaled_cov()
         if cov is None:
             return self.pos_std_m * math.sqrt(2.0)
-        return math.sqrt(max(float(np.linalg.eigvalsh(cov)[-1]), 0.0))
+        return worst_std(cov)
 
 
 def line_spread(
@@ -405,7 +415,7 @@ def line_spread(
     cov_pos = across @ jac @ cov @ jac.T @ across
     turn = _skew(moved_dir) @ cov[:3, :3] @ _skew(moved_dir).T
     return FitSpread(
-        float(np.sqrt(max(np.trace(cov_pos), 0.0) / 2.0)),
+        across_std(cov_pos),
         float(np.sqrt(max(np.trace(turn), 0.0) / 2.0)),
         rms,
         int(ok.sum()),

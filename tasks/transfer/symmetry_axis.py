@@ -25,6 +25,7 @@ from scipy.optimize import least_squares
 
 from tasks.arrays import FloatArray, Points, Vector3
 from tasks.transfer.local_refine import axis_region
+from tasks.transfer.stretch import across_std, worst_std
 
 MIN_POINTS = 60
 """A symmetry fit needs at least this many points in the region."""
@@ -57,12 +58,12 @@ class SymmetryFit:
     @property
     def pos_std_m(self) -> float:
         """RMS sigma of ``pos`` over the two directions across the axis, metres."""
-        return math.sqrt(max(float(np.trace(self.pos_cov)) / 2.0, 0.0))
+        return across_std(self.pos_cov)
 
     @property
     def worst_pos_std_m(self) -> float:
         """Sigma of ``pos`` in its worst-placed direction across the axis, metres."""
-        return math.sqrt(max(float(np.linalg.eigvalsh(self.pos_cov)[-1]), 0.0))
+        return worst_std(self.pos_cov)
 
 
 def _basis(direction: Vector3) -> tuple[Vector3, Vector3]:
