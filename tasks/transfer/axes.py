@@ -6,7 +6,10 @@ The global similarity carries every primitive first. Then, per primitive with an
    source finds its axis within ``SYMMETRIC_OFFSET_FRAC`` of the region radius) is moved across onto the target
    region's symmetry axis (``symmetry_axis``, fitted to the body's sides), when that lies within ``MAX_SNAP_FRAC``
    of the radius; the primitive's transform is then the global one translated by that move, and the symmetry fit's
-   covariance is the axis point's sigma.
+   covariance is the axis point's sigma. When the whole body about the axis is one of revolution too (its axis,
+   tilt fitted, within the same fraction of the region radius of the demonstrated one at both ends of the body:
+   a bottle under its cap), the direction is first turned onto the target body's fitted axis
+   (``symmetry_axis.fit_symmetry_line``), within ``MAX_SNAP_TURN_DEG``, and that fit's sigma is the direction's.
 2. The local check (``local_refine``) looks at the axis under that transform and warns when the target about
    it is not explained or the region's own refinement disagrees; a snapped axis is not judged by it (two
    bottles of other proportions explain only 0.4-0.7 of each other about a correctly placed cap axis).
@@ -17,9 +20,11 @@ The grasp is carried by the transform of the first primitive whose axis passes w
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from schemas.descriptor import Primitive
 from tasks.arrays import Points
@@ -27,8 +32,8 @@ from tasks.transfer.carry import axis_spread
 from tasks.transfer.clouds import median_spacing
 from tasks.transfer.local_refine import LocalCheck, LocalParams, check_axis, region_size
 from tasks.transfer.registration import surface_normals
-from tasks.transfer.similarity import Similarity, point_line_distance
-from tasks.transfer.symmetry_axis import SymmetryFit, fit_symmetry_axis
+from tasks.transfer.similarity import Similarity, angle_between_deg, point_line_distance
+from tasks.transfer.symmetry_axis import SymmetryFit, fit_symmetry_axis, fit_symmetry_line
 
 SYMMETRIC_OFFSET_FRAC = 0.01
 """The source region is a body of revolution when its fitted symmetry axis lies within 1 % of the region radius
@@ -40,6 +45,12 @@ SNAP_ROUNDS = 3
 """Symmetry fits on the target, each about the previous one's axis."""
 LOSS_SPACINGS = 0.5
 """Soft-L1 scale of the symmetry fit: half the source's median point spacing (at least 0.5 mm)."""
+BODY_RADIUS_FRAC = 2.0
+"""The body under a symmetric region is sought within twice the region radius of the axis (a bottle's body is
+wider than its cap); points of other parts within it lie on no slice's circle and fall to the soft-L1 loss."""
+MAX_SNAP_TURN_DEG = 3.0
+"""The target body's axis turns the carried direction by at most the transferred axis's worst-case tolerance:
+a larger turn means the registration or the fit is wrong, and either way the body's axis does not place it."""
 
 
 @dataclass(frozen=True)
@@ -92,18 +103,68 @@ def _snap(
     if own is None or own.offset_m > SYMMETRIC_OFFSET_FRAC * radius:
         return None
     carried, carried_dir = best.apply_point(pos), best.apply_direction(direction)
+    body = _body_axis(source, target, normals=normals, best=best, line=(pos, direction), radius=radius, loss=loss)
+    axis_dir = carried_dir if body is None else body.direction
     centre = carried
     fitted: SymmetryFit | None = None
     for _ in range(SNAP_ROUNDS):  # the region about a misplaced axis cuts the part unevenly: fit again about the fit
         fitted = fit_symmetry_axis(
-            target, normals.target, centre, carried_dir, radius * best.scale, loss_scale_m=loss * best.scale
+            target, normals.target, centre, axis_dir, radius * best.scale, loss_scale_m=loss * best.scale
         )
         if fitted is None:
             return None
         centre = fitted.pos
     if fitted is None or float(np.linalg.norm(centre - carried)) > MAX_SNAP_FRAC * radius * best.scale:
         return None
-    return Snap(Similarity(best.scale, best.rotation, best.translation + (centre - carried)), fitted)
+    turned = best
+    if body is not None:
+        fitted = replace(fitted, dir_std_rad=body.dir_std_rad)
+        turn = _turn_onto(carried_dir, axis_dir)
+        turned = Similarity(best.scale, turn @ best.rotation, carried - turn @ (carried - best.translation))
+    return Snap(Similarity(turned.scale, turned.rotation, turned.translation + (centre - carried)), fitted)
+
+
+def _turn_onto(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The smallest rotation (3, 3) taking unit ``a`` onto unit ``b``."""
+    axis = np.cross(a, b)
+    angle = math.atan2(float(np.linalg.norm(axis)), float(np.dot(a, b)))
+    if angle < 1e-12:
+        return np.eye(3)
+    out: np.ndarray = Rotation.from_rotvec(axis / np.linalg.norm(axis) * angle).as_matrix()
+    return out
+
+
+def _body_axis(
+    source: Points,
+    target: Points,
+    *,
+    normals: CloudNormals,
+    best: Similarity,
+    line: tuple[np.ndarray, np.ndarray],
+    radius: float,
+    loss: float,
+) -> SymmetryFit | None:
+    """The target body's symmetry axis (direction fitted, target frame) about the carried ``line`` (source frame),
+    when the source's body about it is one of revolution (``BODY_RADIUS_FRAC``) and the target's turns it by at
+    most ``MAX_SNAP_TURN_DEG``; else None."""
+    pos, direction = line
+    wide = BODY_RADIUS_FRAC * radius
+    own = fit_symmetry_line(source, normals.source, pos, direction, wide, loss_scale_m=loss)
+    if own is None or own.offset_m > SYMMETRIC_OFFSET_FRAC * radius:
+        return None
+    carried_dir = best.apply_direction(direction)
+    centre, axis_dir = best.apply_point(pos), carried_dir
+    fitted: SymmetryFit | None = None
+    for _ in range(SNAP_ROUNDS):
+        fitted = fit_symmetry_line(
+            target, normals.target, centre, axis_dir, wide * best.scale, loss_scale_m=loss * best.scale
+        )
+        if fitted is None:
+            return None
+        centre, axis_dir = fitted.pos, fitted.direction
+    if fitted is None or angle_between_deg(axis_dir, carried_dir) > MAX_SNAP_TURN_DEG:
+        return None
+    return fitted
 
 
 def place_axes(
@@ -137,7 +198,8 @@ def place_axes(
         transform = moved.transform if moved is not None else start
         transforms.append(transform)
         fits.append(moved.fit if moved is not None else None)
-        shift = float(np.linalg.norm(transform.translation - start.translation))
+        anchor = np.asarray(prim.pos, dtype=np.float64) if prim.pos is not None else np.zeros(3)
+        shift = float(np.linalg.norm(transform.apply_point(anchor) - start.apply_point(anchor)))
         snapped.append(shift)
         check = check_axis(
             prim,

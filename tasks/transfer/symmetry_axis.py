@@ -12,6 +12,11 @@ face across the axis (a cap's top, a shoulder) puts points at every radius of it
 one side of it pulls the slice's circle towards that side (1.4-1.9 mm at a cap's top with its top face in).
 The centre's covariance comes from the fit's Jacobian and its residuals, so the placement carries its own sigma.
 
+``fit_symmetry_line`` fits the direction too: the slices' centre moves linearly along the axis (a tilt), over
+every side point within the radius of the line at any height. Over a whole bottle (its body, neck and cap) the
+tilt is measured along the body's length, where the stretched fit of a bottle of other proportions leaves the
+direction off by the shape it cannot follow.
+
 Lengths in metres; ``pos`` and ``direction`` in the frame of the points.
 """
 
@@ -30,7 +35,8 @@ from tasks.transfer.stretch import across_std, worst_std
 MIN_POINTS = 60
 """A symmetry fit needs at least this many points in the region."""
 SLICES = 12
-"""Slices along the axis of the region (each gets its own radius)."""
+"""Slices along the axis of a region as long as it is wide (each gets its own radius): a slice is a sixth of the
+region radius tall, over which a body's radius changes little."""
 MIN_SLICE_POINTS = 6
 """Slices with fewer points are left out of the fit."""
 SIDE_DEG = 30.0
@@ -54,6 +60,10 @@ class SymmetryFit:
     pos_cov: FloatArray
     """(3, 3) covariance of ``pos`` across the axis (from the fit's Jacobian and its inliers' residuals), metres
     squared."""
+    direction: Vector3
+    """The fitted axis direction (unit): the given one unless the fit tilts it (``fit_symmetry_line``)."""
+    dir_std_rad: float | None = None
+    """One-sigma turn of ``direction`` (RMS over the two directions across it), radians; None: not fitted."""
 
     @property
     def pos_std_m(self) -> float:
@@ -82,39 +92,81 @@ def fit_symmetry_axis(
     sign) within ``radius_m`` of ``pos`` and of the line through it; None when too few points. ``loss_scale_m``:
     the soft-L1 scale (about the surface noise)."""
     sel = axis_region(points, pos, direction, radius_m)
-    sel &= np.abs(normals @ direction) <= math.sin(math.radians(SIDE_DEG))
-    if int(sel.sum()) < MIN_POINTS:
+    slices = (-radius_m, radius_m / (SLICES / 2))
+    return _fit(points[sel], normals[sel], (pos, direction), slices=slices, loss_scale_m=loss_scale_m, tilt=False)
+
+
+def fit_symmetry_line(
+    points: Points, normals: Points, pos: Vector3, direction: Vector3, radius_m: float, *, loss_scale_m: float
+) -> SymmetryFit | None:
+    """The symmetry axis (point and direction, near ``pos`` and unit ``direction``) of the side points within
+    ``radius_m`` of the line at any height along it, sliced as ``fit_symmetry_axis`` slices a region of radius
+    ``radius_m``; ``pos`` of the result is across the axis from the given one, ``offset_m`` the largest distance
+    between the two lines over the fitted points' extent. None when too few points."""
+    rel = points - pos
+    along = rel @ direction
+    sel = (rel**2).sum(axis=1) - along**2 <= radius_m**2
+    slices = (None, radius_m / (SLICES / 2))
+    return _fit(points[sel], normals[sel], (pos, direction), slices=slices, loss_scale_m=loss_scale_m, tilt=True)
+
+
+def _fit(
+    points: Points,
+    normals: Points,
+    line: tuple[Vector3, Vector3],
+    *,
+    slices: tuple[float | None, float],
+    loss_scale_m: float,
+    tilt: bool,
+) -> SymmetryFit | None:
+    """One centre (moving linearly along the axis when ``tilt``) and one radius per slice, fitted to the side
+    points among ``points``. ``slices``: where along the axis from ``pos`` the first slice starts (None: at the
+    lowest side point) and how tall each is, metres."""
+    pos, direction = line
+    side = np.abs(normals @ direction) <= math.sin(math.radians(SIDE_DEG))
+    if int(side.sum()) < MIN_POINTS:
         return None
-    rel = points[sel] - pos
+    rel = points[side] - pos
     u, v = _basis(direction)
     x, y, h = rel @ u, rel @ v, rel @ direction
-    edges = np.linspace(-radius_m, radius_m, SLICES + 1)
-    slice_of = np.clip(np.searchsorted(edges, h, side="right") - 1, 0, SLICES - 1)
-    counts = np.bincount(slice_of, minlength=SLICES)
+    origin = float(h.min()) if slices[0] is None else slices[0]
+    slice_of = np.clip(np.floor((h - origin) / slices[1]).astype(np.intp), 0, None)
+    counts = np.bincount(slice_of)
     keep = counts[slice_of] >= MIN_SLICE_POINTS
-    x, y, slice_of = x[keep], y[keep], slice_of[keep]
+    x, y, h, slice_of = x[keep], y[keep], h[keep], slice_of[keep]
     if x.shape[0] < MIN_POINTS:
         return None
     used = np.unique(slice_of)
     index = np.searchsorted(used, slice_of)
     r0 = np.hypot(x, y)
     radii0 = np.array([np.median(r0[index == k]) for k in range(len(used))])
+    lines = 4 if tilt else 2
 
     def residuals(params: FloatArray) -> FloatArray:
-        out: FloatArray = np.hypot(x - params[0], y - params[1]) - params[2 + index]
+        cx, cy = (params[0] + h * params[2], params[1] + h * params[3]) if tilt else (params[0], params[1])
+        out: FloatArray = np.hypot(x - cx, y - cy) - params[lines + index]
         return out
 
     result = least_squares(
-        residuals, np.concatenate([[0.0, 0.0], radii0]), loss="soft_l1", f_scale=loss_scale_m, max_nfev=200
+        residuals, np.concatenate([np.zeros(lines), radii0]), loss="soft_l1", f_scale=loss_scale_m, max_nfev=200
     )
-    cx, cy = float(result.x[0]), float(result.x[1])
     res = residuals(result.x)
     inlier = np.abs(res) <= 3.0 * loss_scale_m
     rms = float(np.sqrt(np.mean(res[inlier] ** 2))) if inlier.any() else float("inf")
-    centre = pos + cx * u + cy * v
     dof = max(int(inlier.sum()) - result.x.shape[0], 1)
     variance = float(np.sum(res[inlier] ** 2)) / dof if inlier.any() else float("inf")
-    cov_uv = np.linalg.pinv(result.jac.T @ result.jac)[:2, :2] * variance
+    cov = np.linalg.pinv(result.jac.T @ result.jac)[:lines, :lines] * variance
     basis = np.column_stack([u, v])
-    pos_cov = basis @ cov_uv @ basis.T
-    return SymmetryFit(centre, float(np.hypot(cx, cy)), rms, float(inlier.mean()), int(x.shape[0]), pos_cov)
+    cx, cy = float(result.x[0]), float(result.x[1])
+    centre = pos + cx * u + cy * v
+    pos_cov = basis @ cov[:2, :2] @ basis.T
+    if not tilt:
+        return SymmetryFit(
+            centre, float(np.hypot(cx, cy)), rms, float(inlier.mean()), int(x.shape[0]), pos_cov, direction
+        )
+    tx, ty = float(result.x[2]), float(result.x[3])
+    fitted = direction + tx * u + ty * v
+    fitted /= np.linalg.norm(fitted)
+    offset = max(float(np.hypot(cx + tx * end, cy + ty * end)) for end in (float(h.min()), float(h.max())))
+    dir_std = math.sqrt(max(float(cov[2, 2] + cov[3, 3]), 0.0) / 2.0)
+    return SymmetryFit(centre, offset, rms, float(inlier.mean()), int(x.shape[0]), pos_cov, fitted, dir_std)

@@ -3,7 +3,8 @@
 A transferred primitive's ``fit`` block holds, besides what learning put there, ``learned_pos_std_m`` and
 ``learned_dir_std_rad`` (the learned axis's own, its position scaled onto the target), ``registration_pos_std_m``
 and ``registration_dir_std_rad`` (how loosely the registration places the axis: ``stretch.line_spread``, or for an
-axis moved onto the target's symmetry axis that fit's own covariance across it), and
+axis moved onto the target's symmetry axis that fit's own covariance across it, and the body's fitted axis's
+for a direction turned onto it), and
 ``pos_std_m`` and ``dir_std_rad`` replaced by their root sum of squares (independent errors). One sigma; metres
 and radians, target frame.
 """
@@ -54,7 +55,8 @@ def _number(value: object) -> float | None:
 
 def axis_uncertainty(prim: Primitive, fit: AxisFit, scale: float, symmetry: SymmetryFit | None) -> AxisUncertainty:
     """The uncertainty of ``prim`` (source frame, its ``fit`` block from learning) carried at ``scale`` by
-    ``fit``, its point placed by ``symmetry`` when not None (the direction stays the fit's)."""
+    ``fit``, its point placed by ``symmetry`` when not None (and its direction, when that fit carries a
+    direction sigma: turned onto the body's axis)."""
     learned_pos = _number(prim.fit.get("pos_std_m"))
     if prim.kind != "rotation":
         pos_std, worst = 0.0, 0.0
@@ -66,7 +68,7 @@ def axis_uncertainty(prim: Primitive, fit: AxisFit, scale: float, symmetry: Symm
         learned_pos * scale if learned_pos is not None else None,
         _number(prim.fit.get("dir_std_rad")),
         pos_std,
-        fit.spread.dir_std_rad,
+        symmetry.dir_std_rad if symmetry is not None and symmetry.dir_std_rad is not None else fit.spread.dir_std_rad,
         worst,
     )
 

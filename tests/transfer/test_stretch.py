@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -105,11 +106,14 @@ def test_uncertainty_combines_learned_and_registration() -> None:
     assert "pos_std_m" not in with_uncertainty(Primitive("translation", None, (0.0, 1.0, 0.0), 0.1), bare).fit
     # an axis moved onto the target's symmetry axis is placed as loosely as that fit, not the whole fit
     cov = np.diag([4e-8, 1e-8, 0.0])
-    symmetry = SymmetryFit(np.zeros(3), 0.001, 0.001, 0.9, 200, cov)
+    symmetry = SymmetryFit(np.zeros(3), 0.001, 0.001, 0.9, 200, cov, np.array([0.0, 0.0, 1.0]))
     snapped = axis_uncertainty(prim, AxisFit(fitted, spread, local=False), scale=1.5, symmetry=symmetry)
     assert snapped.registration_pos_worst_m == pytest.approx(2e-4)
     assert snapped.registration_pos_std_m == pytest.approx(math.sqrt(2.5e-8))
     assert snapped.registration_dir_std_rad == pytest.approx(spread.dir_std_rad)
+    # and turned onto the body's fitted axis, its direction is as loose as that fit's
+    turned = axis_uncertainty(prim, AxisFit(fitted, spread, local=False), 1.5, replace(symmetry, dir_std_rad=0.002))
+    assert turned.registration_dir_std_rad == pytest.approx(0.002)
 
 
 def test_stretch_icp_without_facing_pairs_keeps_its_start() -> None:
