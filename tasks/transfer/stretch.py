@@ -338,6 +338,29 @@ class FitSpread:
         return worst_std(cov)
 
 
+def line_jacobians(
+    fitted: Stretched, line: tuple[Vector3, Vector3], centre: Vector3, *, unknowns: int = 9
+) -> tuple[FloatArray, FloatArray]:
+    """(3, unknowns) Jacobians of the carried line's point and unit direction (target frame; ``line``: point and
+    direction, source frame) with respect to a step of ``stretch_icp`` from ``fitted``: a small rotation about
+    ``centre`` (target frame), a translation, and with ``unknowns`` 9 the relative changes of the three factors.
+    A factor along an axis the line is tilted from turns the direction as well as moving the point."""
+    pos, direction = line
+    moved_pos, moved_dir = fitted.carry_line(pos, direction)
+    jac = np.zeros((3, unknowns))
+    jac[:, :3] = -_skew(moved_pos - centre)
+    jac[:, 3:6] = np.eye(3)
+    jac_dir = np.zeros((3, unknowns))
+    jac_dir[:, :3] = -_skew(moved_dir)
+    if unknowns > 6:
+        turned_axes = fitted.similarity.rotation @ fitted.axes
+        jac[:, 6:] = fitted.similarity.scale * fitted.factors * ((pos - fitted.centre) @ fitted.axes) * turned_axes
+        across = np.eye(3) - np.outer(moved_dir, moved_dir)
+        stretched = float(np.linalg.norm(fitted.linear() @ direction))
+        jac_dir[:, 6:] = across @ (fitted.factors * (direction @ fitted.axes) * turned_axes) / stretched
+    return jac, jac_dir
+
+
 def line_spread(
     fitted: Stretched,
     source: Points,
@@ -403,17 +426,11 @@ def line_spread(
     prior[6:] = 1.0 / math.log(MAX_STRETCH) ** 2
     cov = np.linalg.inv(info + np.diag(prior))
     pos, direction = line
-    moved_pos, moved_dir = fitted.carry_line(pos, direction)
-    jac = np.zeros((3, unknowns))
-    jac[:, :3] = -_skew(moved_pos - centre)
-    jac[:, 3:6] = np.eye(3)
-    if free_stretch:
-        coord = (pos - fitted.centre) @ fitted.axes
-        turned_axes = fitted.similarity.rotation @ fitted.axes
-        jac[:, 6:] = fitted.similarity.scale * fitted.factors * coord * turned_axes
+    moved_dir = fitted.carry_line(pos, direction)[1]
+    jac, jac_dir = line_jacobians(fitted, line, centre, unknowns=unknowns)
     across = np.eye(3) - np.outer(moved_dir, moved_dir)
     cov_pos = across @ jac @ cov @ jac.T @ across
-    turn = _skew(moved_dir) @ cov[:3, :3] @ _skew(moved_dir).T
+    turn = jac_dir @ cov @ jac_dir.T
     return FitSpread(
         across_std(cov_pos),
         float(np.sqrt(max(np.trace(turn), 0.0) / 2.0)),

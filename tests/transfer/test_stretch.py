@@ -7,6 +7,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 from schemas.descriptor import Primitive
 from tasks.transfer.axis_fit import AxisFit, lateral_pinning
@@ -18,6 +19,7 @@ from tasks.transfer.stretch import (
     Stretched,
     box_axes,
     fit_stretch,
+    line_jacobians,
     line_spread,
     local_similarity,
     smoothed_normals,
@@ -145,3 +147,31 @@ def test_a_thin_slab_seen_from_the_front_keeps_its_thickness() -> None:
     )
     thickness = fitted.factors[np.abs(fitted.axes[1]).argmax()]
     assert thickness > 0.9
+
+
+def test_line_jacobians_match_a_small_step_of_the_fit() -> None:
+    """A line tilted from the stretch axes: a step of each unknown (as ``stretch_icp`` applies it) moves the
+    carried point and turns the carried direction as the Jacobians say, the factors' turn included."""
+    rng = np.random.default_rng(11)
+    axes = shapes.random_rotation(rng)
+    fitted = Stretched(
+        Similarity(1.1, shapes.random_rotation(rng), np.array([0.1, 0.2, -0.3])),
+        axes,
+        np.array([1.2, 0.9, 1.05]),
+        np.array([0.01, -0.02, 0.03]),
+    )
+    line = (np.array([0.05, 0.1, -0.02]), np.array([0.6, 0.0, 0.8]))
+    centre = np.array([0.12, 0.18, -0.25])
+    jac, jac_dir = line_jacobians(fitted, line, centre)
+    pos0, dir0 = fitted.carry_line(*line)
+    step = 1e-6
+    for k in range(9):
+        x = np.zeros(9)
+        x[k] = step
+        rot = Rotation.from_rotvec(x[:3]).as_matrix()
+        delta = Similarity(1.0, rot, centre + x[3:6] - rot @ centre)
+        moved = Stretched(delta.compose(fitted.similarity), axes, fitted.factors * (1.0 + x[6:]), fitted.centre)
+        pos1, dir1 = moved.carry_line(*line)
+        np.testing.assert_allclose((pos1 - pos0) / step, jac[:, k], atol=1e-4)
+        np.testing.assert_allclose((dir1 - dir0) / step, jac_dir[:, k], atol=1e-4)
+    assert np.abs(jac_dir[:, 6:]).max() > 0.1  # the factors do turn this line
