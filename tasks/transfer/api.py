@@ -206,6 +206,11 @@ def transfer_descriptor(
         "axes": [
             {
                 "placed_by": "symmetry" if snapped > 0.0 else ("neighbourhood" if fit.local else "whole model"),
+                "direction_by": (
+                    "symmetry"
+                    if sym is not None and sym.dir_std_rad is not None
+                    else ("neighbourhood" if fit.local and fit.direction_from is None else "whole model")
+                ),
                 "residual_rms_m": _finite(fit.spread.rms_m),
                 "neighbourhood_shift_mm": fit.whole_shift_m * 1e3,
                 "neighbourhood_turn_deg": math.degrees(fit.whole_turn_rad),
@@ -223,7 +228,9 @@ def transfer_descriptor(
                 "local_turn_deg": check.turn_deg,
                 "local_shift_mm": check.shift_m * 1e3,
             }
-            for snapped, check, fit, unc in zip(placed.snapped_m, placed.checks, fits.axes, uncertainty, strict=True)
+            for snapped, sym, check, fit, unc in zip(
+                placed.snapped_m, placed.symmetry, placed.checks, fits.axes, uncertainty, strict=True
+            )
         ],
         "start": reg.best.start,
         "region": "whole" if reg.crop_radius_m is None else "functional",

@@ -89,6 +89,8 @@ def test_descriptor_moves_with_the_object(bottle_model: shapes.ShapeModel) -> No
     rot_info, tra_info = info["axes"]  # the cap's axis placed and checked; a translation has no axis point
     assert rot_info["region_points"] > 40
     assert rot_info["back_fitness"] > 0.9
+    assert rot_info["placed_by"] == rot_info["direction_by"] == "symmetry"  # the cap on its bottle's body axis
+    assert tra_info["direction_by"] != "symmetry"
     assert tra_info["region_points"] == 0
     assert tra_info["back_fitness"] is None
     assert np.array(info["transform"]).shape == (4, 4)
