@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 import numpy as np
 import open3d as o3d
@@ -68,6 +70,20 @@ def pca_starts(src_n: Points, tgt_n: Points) -> list[Candidate]:
     return starts
 
 
+@contextmanager
+def single_threaded() -> Iterator[None]:
+    """Open3d limited to one thread within the block (its previous limit restored after). Its RANSAC iterations
+    run in parallel (oneAPI TBB, which ``OMP_NUM_THREADS`` does not bound) and draw from one seeded generator in
+    whatever order the threads reach it, so a seed alone does not repeat a run: the same transfer was written in
+    one process and refused as ambiguous in another (Open3D issue 7475)."""
+    before = o3d.utility.get_max_threads()
+    o3d.utility.set_max_threads(1)
+    try:
+        yield
+    finally:
+        o3d.utility.set_max_threads(before)
+
+
 def _safe_similarity(matrix: FloatArray) -> Similarity:
     try:
         return Similarity.from_matrix(matrix)
@@ -91,26 +107,27 @@ def scored_candidates(
         reg.CorrespondenceCheckerBasedOnEdgeLength(0.75),
         reg.CorrespondenceCheckerBasedOnDistance(3.0 * COARSE_VOXEL),
     ]
-    for k in range(params.ransac_runs):
-        # Seeded right before each run: open3d's RANSAC draws from a generator that an earlier call in the same
-        # process leaves in another state, so one seed for both runs made a transfer depend on what ran before it.
+    with single_threaded():
+        for k in range(params.ransac_runs):
+            # Seeded right before each run: one seed for both runs left the second to start from whatever state
+            # the first left the generator in.
+            o3d.utility.random.seed(int(rng.integers(0, 2**31 - 1)))
+            result = reg.registration_ransac_based_on_feature_matching(
+                src,
+                tgt,
+                f_src,
+                f_tgt,
+                k % 2 == 1,
+                3.0 * COARSE_VOXEL,
+                reg.TransformationEstimationPointToPoint(with_scaling=False),
+                3,
+                checkers,
+                reg.RANSACConvergenceCriteria(params.ransac_iterations, 0.999),
+            )
+            starts.append((f"ransac-{k}", _safe_similarity(np.asarray(result.transformation))))
         o3d.utility.random.seed(int(rng.integers(0, 2**31 - 1)))
-        result = reg.registration_ransac_based_on_feature_matching(
-            src,
-            tgt,
-            f_src,
-            f_tgt,
-            k % 2 == 1,
-            3.0 * COARSE_VOXEL,
-            reg.TransformationEstimationPointToPoint(with_scaling=False),
-            3,
-            checkers,
-            reg.RANSACConvergenceCriteria(params.ransac_iterations, 0.999),
-        )
-        starts.append((f"ransac-{k}", _safe_similarity(np.asarray(result.transformation))))
-    fgr = reg.registration_fgr_based_on_feature_matching(
-        src, tgt, f_src, f_tgt, reg.FastGlobalRegistrationOption(maximum_correspondence_distance=1.5 * COARSE_VOXEL)
-    )
+        option = reg.FastGlobalRegistrationOption(maximum_correspondence_distance=1.5 * COARSE_VOXEL)
+        fgr = reg.registration_fgr_based_on_feature_matching(src, tgt, f_src, f_tgt, option)
     starts.append(("fgr", _safe_similarity(np.asarray(fgr.transformation))))
     threshold = 1.5 * COARSE_VOXEL
     scored: list[tuple[float, str, Similarity]] = []

@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
+import open3d as o3d
 import pytest
 
 from schemas.descriptor import ObjectRef
@@ -12,6 +13,7 @@ from tasks.errors import GraspError, TransferError
 from tasks.transfer.api import RegistrationParams, register_models, transfer_descriptor
 from tasks.transfer.carry import carry_grasp, grip_points
 from tasks.transfer.clouds import check_model
+from tasks.transfer.global_starts import global_starts
 from tasks.transfer.similarity import Similarity, angle_between_deg, point_line_distance
 from tests.transfer import shapes
 
@@ -198,3 +200,28 @@ def test_flat_sheet_has_no_alignment_at_a_similar_objects_scale(bottle_model: sh
     sheet = np.column_stack([rng.uniform(-0.1, 0.1, 3000), rng.uniform(-0.1, 0.1, 3000), np.zeros(3000)])
     with pytest.raises(TransferError, match=r"no alignment of the models at a scale within 0\.6\.\.1\.7"):
         register_models(bottle_model.points, sheet, focus=bottle_model.focus, params=FAST, rng=rng)
+
+
+def test_global_starts_repeat_whatever_ran_before(bottle_model: shapes.ShapeModel) -> None:
+    """The same clouds and seed give the same candidates, with other registrations run in between: open3d's
+    parallel RANSAC would draw its seeded samples in whatever order its threads reach the generator."""
+    rng = np.random.default_rng(12)
+    fat = shapes.bottle(rng, n=3000, radius=0.042, cap_radius=0.021)
+    target = Similarity(1.1, shapes.random_rotation(rng), np.array([0.3, 0.1, -0.2])).apply_points(fat.points)
+    target, _ = shapes.partial_scan(target, fat.normals, rng, 0.6, view=False)
+    other = shapes.mug(np.random.default_rng(2), n=3000).points
+    params = RegistrationParams(ransac_iterations=100_000, ransac_runs=2)
+    runs = []
+    threads = o3d.utility.get_max_threads()
+    for k in range(3):
+        if k:
+            global_starts(other, target, span_t=0.3, params=params, rng=np.random.default_rng(k), init=None)
+        got = global_starts(
+            bottle_model.points, target, span_t=0.3, params=params, rng=np.random.default_rng(5), init=None
+        )
+        runs.append([(name, t.matrix()) for name, t in got])
+    for run in runs[1:]:
+        assert [n for n, _ in run] == [n for n, _ in runs[0]]
+        for (_, a), (_, b) in zip(run, runs[0], strict=True):
+            np.testing.assert_array_equal(a, b)
+    assert o3d.utility.get_max_threads() == threads
