@@ -7,9 +7,10 @@ The global similarity carries every primitive first. Then, per primitive with an
    region's symmetry axis (``symmetry_axis``, fitted to the body's sides), when that lies within ``MAX_SNAP_FRAC``
    of the radius; the primitive's transform is then the global one translated by that move, and the symmetry fit's
    covariance is the axis point's sigma. When the whole body about the axis is one of revolution too (its axis,
-   tilt fitted, within the same fraction of the region radius of the demonstrated one at both ends of the body:
-   a bottle under its cap), the direction is first turned onto the target body's fitted axis
-   (``symmetry_axis.fit_symmetry_line``), within ``MAX_SNAP_TURN_DEG``, and that fit's sigma is the direction's.
+   tilt fitted, within the same fraction of the region radius of the demonstrated one at both ends of the body,
+   beyond what the demonstrated direction's own sigma moves it there: a bottle under its cap), the direction is
+   first turned onto the target body's fitted axis (``symmetry_axis.fit_symmetry_line``), within
+   ``MAX_SNAP_TURN_DEG``, and that fit's sigma is the direction's.
 2. The local check (``local_refine``) looks at the axis under that transform and warns when the target about
    it is not explained or the region's own refinement disagrees; a snapped axis is not judged by it (two
    bottles of other proportions explain only 0.4-0.7 of each other about a correctly placed cap axis).
@@ -48,6 +49,9 @@ LOSS_SPACINGS = 0.5
 BODY_RADIUS_FRAC = 2.0
 """The body under a symmetric region is sought within twice the region radius of the axis (a bottle's body is
 wider than its cap); points of other parts within it lie on no slice's circle and fall to the soft-L1 loss."""
+LEARNED_SIGMAS = 3.0
+"""The demonstrated direction may be off by three of its own sigmas (``fit.dir_std_rad``): along a body 0.3 m long
+a learned direction 0.1 degrees off lies 0.5 mm from the body's axis at its far end."""
 MAX_SNAP_TURN_DEG = 3.0
 """The target body's axis turns the carried direction by at most the transferred axis's worst-case tolerance:
 a larger turn means the registration or the fit is wrong, and either way the body's axis does not place it."""
@@ -103,7 +107,11 @@ def _snap(
     if own is None or own.offset_m > SYMMETRIC_OFFSET_FRAC * radius:
         return None
     carried, carried_dir = best.apply_point(pos), best.apply_direction(direction)
-    body = _body_axis(source, target, normals=normals, best=best, line=(pos, direction), radius=radius, loss=loss)
+    learned = prim.fit.get("dir_std_rad")
+    slack = LEARNED_SIGMAS * float(learned) if isinstance(learned, int | float) and math.isfinite(learned) else 0.0
+    body = _body_axis(
+        source, target, normals=normals, best=best, line=(pos, direction), radius=radius, loss=loss, slack_rad=slack
+    )
     axis_dir = carried_dir if body is None else body.direction
     centre = carried
     fitted: SymmetryFit | None = None
@@ -143,14 +151,16 @@ def _body_axis(
     line: tuple[np.ndarray, np.ndarray],
     radius: float,
     loss: float,
+    slack_rad: float,
 ) -> SymmetryFit | None:
     """The target body's symmetry axis (direction fitted, target frame) about the carried ``line`` (source frame),
-    when the source's body about it is one of revolution (``BODY_RADIUS_FRAC``) and the target's turns it by at
-    most ``MAX_SNAP_TURN_DEG``; else None."""
+    when the source's body about it is one of revolution (``BODY_RADIUS_FRAC``; ``slack_rad``: how far the
+    demonstrated direction may be off, radians) and the target's turns it by at most ``MAX_SNAP_TURN_DEG``; else
+    None."""
     pos, direction = line
     wide = BODY_RADIUS_FRAC * radius
     own = fit_symmetry_line(source, normals.source, pos, direction, wide, loss_scale_m=loss)
-    if own is None or own.offset_m > SYMMETRIC_OFFSET_FRAC * radius:
+    if own is None or own.offset_m > SYMMETRIC_OFFSET_FRAC * radius + slack_rad * own.reach_m:
         return None
     carried_dir = best.apply_direction(direction)
     centre, axis_dir = best.apply_point(pos), carried_dir

@@ -64,6 +64,8 @@ class SymmetryFit:
     """The fitted axis direction (unit): the given one unless the fit tilts it (``fit_symmetry_line``)."""
     dir_std_rad: float | None = None
     """One-sigma turn of ``direction`` (RMS over the two directions across it), radians; None: not fitted."""
+    reach_m: float = 0.0
+    """Farthest a fitted point lies along the axis from ``pos`` (where ``offset_m`` is measured), metres."""
 
     @property
     def pos_std_m(self) -> float:
@@ -169,4 +171,5 @@ def _fit(
     fitted /= np.linalg.norm(fitted)
     offset = max(float(np.hypot(cx + tx * end, cy + ty * end)) for end in (float(h.min()), float(h.max())))
     dir_std = math.sqrt(max(float(cov[2, 2] + cov[3, 3]), 0.0) / 2.0)
-    return SymmetryFit(centre, offset, rms, float(inlier.mean()), int(x.shape[0]), pos_cov, fitted, dir_std)
+    reach = max(abs(float(h.min())), abs(float(h.max())))
+    return SymmetryFit(centre, offset, rms, float(inlier.mean()), int(x.shape[0]), pos_cov, fitted, dir_std, reach)
