@@ -142,22 +142,22 @@ def _fit(
     index = np.searchsorted(used, slice_of)
     r0 = np.hypot(x, y)
     radii0 = np.array([np.median(r0[index == k]) for k in range(len(used))])
-    lines = 4 if tilt else 2
+    axis_params = 4 if tilt else 2  # the centre (and its tilt) ahead of the radii
 
     def residuals(params: FloatArray) -> FloatArray:
         cx, cy = (params[0] + h * params[2], params[1] + h * params[3]) if tilt else (params[0], params[1])
-        out: FloatArray = np.hypot(x - cx, y - cy) - params[lines + index]
+        out: FloatArray = np.hypot(x - cx, y - cy) - params[axis_params + index]
         return out
 
     result = least_squares(
-        residuals, np.concatenate([np.zeros(lines), radii0]), loss="soft_l1", f_scale=loss_scale_m, max_nfev=200
+        residuals, np.concatenate([np.zeros(axis_params), radii0]), loss="soft_l1", f_scale=loss_scale_m, max_nfev=200
     )
     res = residuals(result.x)
     inlier = np.abs(res) <= 3.0 * loss_scale_m
     rms = float(np.sqrt(np.mean(res[inlier] ** 2))) if inlier.any() else float("inf")
     dof = max(int(inlier.sum()) - result.x.shape[0], 1)
     variance = float(np.sum(res[inlier] ** 2)) / dof if inlier.any() else float("inf")
-    cov = np.linalg.pinv(result.jac.T @ result.jac)[:lines, :lines] * variance
+    cov = np.linalg.pinv(result.jac.T @ result.jac)[:axis_params, :axis_params] * variance
     basis = np.column_stack([u, v])
     cx, cy = float(result.x[0]), float(result.x[1])
     centre = pos + cx * u + cy * v
