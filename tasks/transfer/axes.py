@@ -21,11 +21,9 @@ The grasp is carried by the transform of the first primitive whose axis passes w
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from schemas.descriptor import Primitive
 from tasks.arrays import Points
@@ -33,8 +31,9 @@ from tasks.transfer.carry import axis_spread
 from tasks.transfer.clouds import median_spacing
 from tasks.transfer.local_refine import LocalCheck, LocalParams, check_axis, region_size
 from tasks.transfer.registration import surface_normals
-from tasks.transfer.similarity import Similarity, angle_between_deg, point_line_distance
+from tasks.transfer.similarity import Similarity, angle_between_deg, point_line_distance, rotation_onto
 from tasks.transfer.symmetry_axis import SymmetryFit, fit_symmetry_axis, fit_symmetry_line
+from tasks.transfer.uncertainty import fit_number
 
 SYMMETRIC_OFFSET_FRAC = 0.01
 """The source region is a body of revolution when its fitted symmetry axis lies within 1 % of the region radius
@@ -107,8 +106,7 @@ def _snap(
     if own is None or own.offset_m > SYMMETRIC_OFFSET_FRAC * radius:
         return None
     carried, carried_dir = best.apply_point(pos), best.apply_direction(direction)
-    learned = prim.fit.get("dir_std_rad")
-    slack = LEARNED_SIGMAS * float(learned) if isinstance(learned, int | float) and math.isfinite(learned) else 0.0
+    slack = LEARNED_SIGMAS * (fit_number(prim.fit, "dir_std_rad") or 0.0)
     body = _body_axis(
         source, target, normals=normals, best=best, line=(pos, direction), radius=radius, loss=loss, slack_rad=slack
     )
@@ -127,19 +125,9 @@ def _snap(
     turned = best
     if body is not None:
         fitted = replace(fitted, dir_std_rad=body.dir_std_rad)
-        turn = _turn_onto(carried_dir, axis_dir)
+        turn = rotation_onto(carried_dir, axis_dir)
         turned = Similarity(best.scale, turn @ best.rotation, carried - turn @ (carried - best.translation))
     return Snap(Similarity(turned.scale, turned.rotation, turned.translation + (centre - carried)), fitted)
-
-
-def _turn_onto(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """The smallest rotation (3, 3) taking unit ``a`` onto unit ``b``."""
-    axis = np.cross(a, b)
-    angle = math.atan2(float(np.linalg.norm(axis)), float(np.dot(a, b)))
-    if angle < 1e-12:
-        return np.eye(3)
-    out: np.ndarray = Rotation.from_rotvec(axis / np.linalg.norm(axis) * angle).as_matrix()
-    return out
 
 
 def _body_axis(

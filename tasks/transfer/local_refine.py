@@ -92,13 +92,17 @@ def region_size(source: Points, params: LocalParams) -> tuple[float, float]:
     return span, min(params.radius_frac * span, params.radius_max_m)
 
 
-def axis_region(points: Points, pos: Vector3, direction: Vector3, radius_m: float) -> BoolArray:
-    """Points within ``radius_m`` of the line through ``pos`` along unit ``direction`` and within ``radius_m`` of
-    ``pos`` along it (a cylinder as long as it is wide; metres, one frame)."""
+def axis_region(
+    points: Points, pos: Vector3, direction: Vector3, radius_m: float, *, half_length_m: float | None = None
+) -> BoolArray:
+    """Points within ``radius_m`` of the line through ``pos`` along unit ``direction`` and within ``half_length_m``
+    of ``pos`` along it (default ``radius_m``: a cylinder as long as it is wide; ``math.inf``: the whole line's
+    neighbourhood; metres, one frame)."""
     rel = points - pos
     along = rel @ direction
     lateral2 = (rel**2).sum(axis=1) - along**2
-    out: BoolArray = (lateral2 <= radius_m**2) & (np.abs(along) <= radius_m)
+    half = radius_m if half_length_m is None else half_length_m
+    out: BoolArray = (lateral2 <= radius_m**2) & (np.abs(along) <= half)
     return out
 
 

@@ -5,9 +5,11 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from tasks.arrays import FloatArray, Points, Vector3, check_points, check_vector3
 
@@ -84,6 +86,18 @@ class Similarity:
         """The inverse transform (target frame to source frame)."""
         rot_t = self.rotation.T
         return Similarity(1.0 / self.scale, rot_t, -(rot_t @ self.translation) / self.scale)
+
+
+def rotation_onto(a: Vector3, b: Vector3) -> FloatArray:
+    """The smallest rotation (3, 3) taking direction ``a`` onto direction ``b`` (the identity when they are
+    parallel)."""
+    axis = np.cross(a, b)
+    norm = float(np.linalg.norm(axis))
+    if norm <= 1e-12:
+        return np.eye(3)
+    angle = math.atan2(norm, float(np.dot(a, b)))
+    out: FloatArray = Rotation.from_rotvec(axis / norm * angle).as_matrix()
+    return out
 
 
 def nearest_rotation(matrix: FloatArray) -> FloatArray:

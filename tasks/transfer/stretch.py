@@ -28,7 +28,7 @@ from scipy.spatial import cKDTree
 
 from tasks.arrays import FloatArray, Points, Vector3
 from tasks.transfer.face_normals import plane_holds
-from tasks.transfer.similarity import Similarity
+from tasks.transfer.similarity import Similarity, rotation_onto
 
 MAX_STRETCH = 1.5
 """Stretch factors stay within 1/1.5 .. 1.5: a similar object's proportions differ by at most half again along
@@ -461,12 +461,7 @@ def local_similarity(stretched: Stretched, pos: Vector3, direction: Vector3) -> 
     the factors' geometric mean, and the point landing where the stretch puts it."""
     sim = stretched.similarity
     moved_pos, moved_dir = stretched.carry_line(pos, direction)
-    plain = sim.rotation @ direction
-    axis = np.cross(plain, moved_dir)
-    turn = _small_rotation(np.asarray(axis, dtype=np.float64) / max(float(np.linalg.norm(axis)), 1e-15) * math.atan2(
-        float(np.linalg.norm(axis)), float(np.dot(plain, moved_dir))
-    )) if np.linalg.norm(axis) > 1e-12 else np.eye(3)  # fmt: skip
-    rotation = turn @ sim.rotation
+    rotation = rotation_onto(sim.rotation @ direction, moved_dir) @ sim.rotation
     scale = sim.scale * float(np.prod(stretched.factors)) ** (1.0 / 3.0)
     return Similarity(scale, rotation, moved_pos - scale * rotation @ pos)
 

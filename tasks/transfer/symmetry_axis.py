@@ -105,9 +105,7 @@ def fit_symmetry_line(
     ``radius_m`` of the line at any height along it, sliced as ``fit_symmetry_axis`` slices a region of radius
     ``radius_m``; ``pos`` of the result is across the axis from the given one, ``offset_m`` the largest distance
     between the two lines over the fitted points' extent. None when too few points."""
-    rel = points - pos
-    along = rel @ direction
-    sel = (rel**2).sum(axis=1) - along**2 <= radius_m**2
+    sel = axis_region(points, pos, direction, radius_m, half_length_m=math.inf)
     slices = (None, radius_m / (SLICES / 2))
     return _fit(points[sel], normals[sel], (pos, direction), slices=slices, loss_scale_m=loss_scale_m, tilt=True)
 

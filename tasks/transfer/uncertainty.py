@@ -12,6 +12,7 @@ and radians, target frame.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -49,7 +50,9 @@ class AxisUncertainty:
         return math.hypot(self.learned_dir_std_rad or 0.0, self.registration_dir_std_rad)
 
 
-def _number(value: object) -> float | None:
+def fit_number(fit: Mapping[str, object], key: str) -> float | None:
+    """A primitive's ``fit`` entry ``key`` as a finite number, None when absent or not one."""
+    value = fit.get(key)
     return float(value) if isinstance(value, int | float) and math.isfinite(value) else None
 
 
@@ -57,7 +60,7 @@ def axis_uncertainty(prim: Primitive, fit: AxisFit, scale: float, symmetry: Symm
     """The uncertainty of ``prim`` (source frame, its ``fit`` block from learning) carried at ``scale`` by
     ``fit``, its point placed by ``symmetry`` when not None (and its direction, when that fit carries a
     direction sigma: turned onto the body's axis)."""
-    learned_pos = _number(prim.fit.get("pos_std_m"))
+    learned_pos = fit_number(prim.fit, "pos_std_m")
     if prim.kind != "rotation":
         pos_std, worst = 0.0, 0.0
     elif symmetry is not None:
@@ -66,7 +69,7 @@ def axis_uncertainty(prim: Primitive, fit: AxisFit, scale: float, symmetry: Symm
         pos_std, worst = fit.spread.pos_std_m, fit.spread.worst_pos_std_m
     return AxisUncertainty(
         learned_pos * scale if learned_pos is not None else None,
-        _number(prim.fit.get("dir_std_rad")),
+        fit_number(prim.fit, "dir_std_rad"),
         pos_std,
         symmetry.dir_std_rad if symmetry is not None and symmetry.dir_std_rad is not None else fit.spread.dir_std_rad,
         worst,
