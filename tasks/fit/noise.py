@@ -143,11 +143,17 @@ def series_noise(values: FloatArray, t_s: FloatArray) -> tuple[float, float]:
     return sigma, tau
 
 
-def independent_samples(n: float, dt_s: float, tau_s: float) -> float:
-    """How many independent draws ``n`` samples ``dt_s`` (s) apart hold of noise correlated over ``tau_s`` (s;
-    AR(1): n (1 - rho) / (1 + rho), rho = exp(-dt / tau)), at least one."""
-    rho = float(np.exp(-dt_s / tau_s)) if tau_s > 0.0 and dt_s > 0.0 else 0.0
-    return max(n * (1.0 - rho) / (1.0 + rho), 1.0)
+def independent_draws(n: float, span_s: float, tau_s: float) -> float:
+    """How many independent draws of its noise ``n`` samples spread over ``span_s`` (s, first to last) hold, at
+    least one: at most one per ``NOISE_LAG_S`` (a recorder upsamples a slower sensor by interpolation or
+    repetition), and under noise correlated over ``tau_s`` (s; AR(1) at the mean spacing dt, rho = exp(-dt /
+    tau)) at most n (1 - rho) / (1 + rho), the count whose mean has the same variance."""
+    if n <= 1.0:
+        return 1.0
+    frames = span_s / NOISE_LAG_S + 1.0
+    dt = span_s / (n - 1.0)
+    rho = float(np.exp(-dt / tau_s)) if tau_s > 0.0 and dt > 0.0 else 0.0
+    return max(min(n, frames, n * (1.0 - rho) / (1.0 + rho)), 1.0)
 
 
 def noise_covariance(points: Points, t_s: FloatArray | None = None) -> FloatArray:

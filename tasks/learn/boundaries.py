@@ -16,7 +16,7 @@ import numpy as np
 
 from tasks.arrays import FloatArray
 from tasks.fit.geometry import perpendicular_basis
-from tasks.fit.noise import independent_samples, series_noise
+from tasks.fit.noise import independent_draws, series_noise
 from tasks.learn.chain import SegmentFit, fit_span, rest_window
 from tasks.learn.params import LearnParams
 from tasks.learn.prepare import MIN_SAMPLES, PreparedRecording
@@ -220,12 +220,14 @@ def smoothed_coordinate(
 def level_noise(t_s: FloatArray, coord: FloatArray, noise: float, count: float) -> float:
     """Noise sigma of a moving average of ``count`` samples of the coordinate ``coord`` (at times ``t_s``, s;
     NaN where unseen) whose per-sample sigma the markers' noise gives as ``noise``: or, when larger, as the series
-    itself shows it along the coordinate, where the noise may be anisotropic (a camera's depth) and correlated over
-    tens of milliseconds (an AR(1) process averages down only by the samples a correlation time apart)."""
+    itself shows it along the coordinate, where the noise may be anisotropic (a camera's depth); averaged down by
+    the independent draws the window holds (``independent_draws``: at most one per camera frame, fewer under
+    noise correlated over tens of milliseconds)."""
     ok = np.isfinite(coord)
     own, tau = series_noise(coord[ok], t_s[ok])
     dt = float(np.median(np.diff(t_s[ok]))) if ok.sum() > 1 else 0.0
-    return max(noise / float(np.sqrt(max(count, 1.0))), own / float(np.sqrt(independent_samples(count, dt, tau))))
+    draws = independent_draws(max(count, 1.0), max(count - 1.0, 0.0) * dt, tau)
+    return max(noise, own) / float(np.sqrt(draws))
 
 
 def trim_to_motion(prep: PreparedRecording, fits: list[SegmentFit]) -> list[SegmentFit]:

@@ -21,7 +21,7 @@ from tasks.arrays import FloatArray, Points
 from tasks.errors import bounded
 from tasks.fit.geometry import angle_between_axes, perpendicular_basis, unit
 from tasks.fit.interpolate import bracketed, positions_at
-from tasks.fit.noise import MAD_TO_SIGMA, NOISE_LAG_S
+from tasks.fit.noise import MAD_TO_SIGMA, independent_draws
 from tasks.fit.rigid import PartMotion, ScrewAxis, part_motion, rss_about_axis, screw_axis
 from tasks.fit.rotation import RotationFit, angles_about, fit_rotation
 from tasks.fit.select import KINDS, SIGMA_MIN_M, Kind, SelectParams, choose_bic, choose_eigen, model_costs
@@ -77,12 +77,11 @@ in its halves, not in its quarters."""
 
 
 def noise_draws(track: Track, i: int, j: int) -> float:
-    """How many independent draws of its noise ``track``'s samples [i, j) hold: at most one per ``NOISE_LAG_S``
-    (a recorder upsamples a slower sensor by interpolation or repetition, and a camera tracker's noise is correlated
-    over its frames), at least one."""
+    """How many independent draws of its noise ``track``'s samples [i, j) hold (``independent_draws`` under the
+    track's noise correlation time), at least one."""
     if j <= i:
         return 1.0
-    return max(min(float(j - i), float(track.t_s[j - 1] - track.t_s[i]) / NOISE_LAG_S + 1.0), 1.0)
+    return independent_draws(float(j - i), float(track.t_s[j - 1] - track.t_s[i]), track.noise_tau_s)
 
 
 def displaced(track: Track, t0: float, t1: float) -> bool:

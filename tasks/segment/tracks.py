@@ -9,7 +9,7 @@ import numpy as np
 
 from tasks.arrays import FloatArray, Points
 from tasks.fit.moments import PrefixMoments, prefix_moments
-from tasks.fit.noise import noise_estimate
+from tasks.fit.noise import noise_model
 from tasks.fit.select import SIGMA_MIN_M
 
 ANISOTROPY_FLOOR = 0.01
@@ -37,6 +37,9 @@ class Track:
     weights: FloatArray
     noise_cov: FloatArray
     """(3, 3) sensor noise covariance (m^2, world axes), anisotropic where it is."""
+    noise_tau_s: float = 0.0
+    """The sensor noise's correlation time (s; 0 for white noise): samples closer than that are not independent
+    draws of it."""
 
     @property
     def mean_weight(self) -> float:
@@ -61,9 +64,9 @@ def sample_weights(t_s: FloatArray) -> FloatArray:
 
 def make_track(name: str, t_s: FloatArray, points: Points, sigma_floor_m: float) -> Track:
     """Build a ``Track`` from finite samples sorted by time; sigma = max(high-frequency noise, floor)."""
-    hf, cov = noise_estimate(points, t_s)
+    hf, cov, tau = noise_model(points, t_s)
     weights = sample_weights(t_s)
-    return Track(name, t_s, points, prefix_moments(points, weights), max(hf, sigma_floor_m), hf, weights, cov)
+    return Track(name, t_s, points, prefix_moments(points, weights), max(hf, sigma_floor_m), hf, weights, cov, tau)
 
 
 def anisotropy(track: Track) -> tuple[FloatArray, float]:

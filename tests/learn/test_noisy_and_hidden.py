@@ -131,6 +131,40 @@ def test_a_still_marker_from_a_camera_upsampled_by_its_recorder_is_not_displaced
     assert sum(moved) <= 2
 
 
+def _tracker_filtered(rng: np.random.Generator, t: np.ndarray, sigma: float, corr_s: float) -> np.ndarray:
+    """(n, 3) noise (m) of standard deviation ``sigma`` correlated over ``corr_s`` (s) at times ``t`` (AR(1))."""
+    rho = np.exp(-np.diff(t, prepend=t[0]) / corr_s)
+    noise = rng.normal(0.0, sigma, (len(t), 3))
+    for k in range(1, len(t)):
+        noise[k] = rho[k] * noise[k - 1] + np.sqrt(1.0 - rho[k] ** 2) * noise[k]
+    return noise
+
+
+@pytest.mark.parametrize(("hz", "corr_s"), [(100.0, 0.07), (240.0, 0.1), (30.0, 0.07)])
+def test_a_still_marker_under_a_trackers_filtered_noise_is_not_displaced(hz: float, corr_s: float) -> None:
+    """A resting marker under 5 mm of noise that a tracker's filter correlates over 70-100 ms: its wander between
+    a window's quarters is noise, which their means average down only by the correlation times they span (counted
+    per sample or per camera frame, it passes for motion in a fifth to a half of the windows; the correlation time
+    estimated from 60 s is within about a third of the truth, so a few windows still pass)."""
+    rng = RNG(10)
+    t = np.arange(0.0, 60.0, 1.0 / hz)
+    track = make_track("rest", t, np.array([0.3, 0.1, 0.8]) + _tracker_filtered(rng, t, 0.005, corr_s), 0.002)
+    starts = np.arange(0.0, 59.0, 0.5)
+    moved = [displaced(track, a, a + rng.uniform(0.45, 0.8)) for a in starts]
+    assert sum(moved) <= 6
+
+
+def test_a_slide_under_a_trackers_filtered_noise_is_displaced() -> None:
+    """A marker slid 100 mm in 0.6 s (a drawer pulled) at 100 Hz under 5 mm of noise correlated over 70 ms: the
+    correlation widens the test, and a slide of twenty noise sigmas still shows in every window over it."""
+    rng = RNG(11)
+    t = np.arange(0.0, 60.0, 0.01)
+    x = 0.1 / 0.6 * np.minimum(t % 1.2, 0.6)
+    pts = np.column_stack([x, np.zeros_like(t), np.zeros_like(t)]) + _tracker_filtered(rng, t, 0.005, 0.07)
+    track = make_track("slide", t, pts, 0.002)
+    assert all(displaced(track, a, a + 0.6) for a in np.arange(0.0, 58.0, 1.2))
+
+
 def test_a_drawer_whose_noisy_markers_seem_to_turn_is_still_a_translation() -> None:
     """Three markers 4 cm apart on a drawer slid 0.2 m at 14 Hz under 5 mm of noise: their triangle's orientation
     wanders by tenths of a radian, which is no turn the arc of a line would sweep."""
