@@ -24,7 +24,9 @@ from tasks.transfer.axis_fit import fit_axes
 from tasks.transfer.carry import axis_spread, carry_grasp, carry_primitive, focus_points, grip_points, keep_standoff
 from tasks.transfer.clouds import check_model
 from tasks.transfer.registration import Registration, RegistrationParams, register_models
+from tasks.transfer.scoring import poor_fit_warning
 from tasks.transfer.similarity import Similarity
+from tasks.transfer.stretched_judgement import stretched_alignment
 from tasks.transfer.uncertainty import (
     MAX_AXIS_DIR_STD_RAD,
     MAX_AXIS_POS_STD_M,
@@ -170,8 +172,16 @@ def transfer_descriptor(
                 f"{math.degrees(unc.registration_dir_std_rad):.2f} deg (one sigma; want <= "
                 f"{MAX_AXIS_POS_STD_M * 1e3:g} mm and {math.degrees(MAX_AXIS_DIR_STD_RAD):g} deg)"
             )
+    judged = reg.best
     if reg.poor:
-        reasons.extend(w for w in reg.warnings if w.startswith("poor"))
+        judged = stretched_alignment(
+            source, target, reg, fits.whole, focus=focus if len(focus) else None, grip=grip, params=params
+        )
+        poor_sim = [w for w in reg.warnings if w.startswith("poor")]
+        if poor_fit_warning(judged, params, reg.threshold_m) is None:
+            warnings = [w for w in warnings if w not in poor_sim]
+        else:
+            reasons.extend(poor_sim)
     reasons.extend(placed.warnings)
     warnings.extend(r for r in reasons if r not in warnings)
     poor = bool(reasons)
@@ -198,6 +208,16 @@ def transfer_descriptor(
         "axis_spread_deg": spread_deg,
         "axis_spread_mm": spread_m * 1e3,
         "plane_rmse_m": _finite(reg.best.plane_rmse_m),
+        "scanned_two_way_score": reg.best.explained_score,
+        "stretched_scores": None
+        if judged is reg.best
+        else {
+            "fitness": judged.fitness,
+            "plane_rmse_m": _finite(judged.plane_rmse_m),
+            "two_way_score": judged.model_score,
+            "scanned_two_way_score": judged.explained_score,
+            "functional_score": judged.score,
+        },
         "scale_range": list(params.scale_range),
         "stretch": {"axes": fits.whole.axes.T.tolist(), "factors": fits.whole.factors.tolist()},
         "refused": poor,

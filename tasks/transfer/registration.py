@@ -44,7 +44,14 @@ from tasks.transfer.clouds import (
 from tasks.transfer.global_starts import global_starts
 from tasks.transfer.plane_icp import plane_residuals, plane_similarity_icp
 from tasks.transfer.registration_types import Alignment, Registration, RegistrationParams
-from tasks.transfer.scoring import functional_score, grip_score, poor_fit_warning, ranked, two_way_score
+from tasks.transfer.scoring import (
+    functional_score,
+    grip_score,
+    poor_fit_warning,
+    ranked,
+    scan_explained_score,
+    two_way_score,
+)
 from tasks.transfer.similarity import Similarity
 
 __all__ = ["Alignment", "Registration", "RegistrationParams", "register_models"]
@@ -187,8 +194,9 @@ def both_ways_icp(
 
 def whole_model_fits(
     src: Points, tgt_mid: O3dCloud, start: Similarity, voxel: float, threshold: float
-) -> list[tuple[Similarity, float]]:
-    """Whole-model fits of one start to refine further, each with its two-way score: the model onto the target
+) -> list[tuple[Similarity, float, float]]:
+    """Whole-model fits of one start to refine further, each with its two-way score and that score over the
+    scanned surface (``scan_explained_score``): the model onto the target
     (``similarity_icp``), and ``both_ways_icp``'s fit as well when its scale differs from that one's by more than
     5 %. Both are kept because neither scale is always right: a whole model fitted onto a partial scan shrinks
     (a cabinet), while two scans of objects of other proportions (a recorded bottle onto another) fitted both ways
@@ -200,7 +208,63 @@ def whole_model_fits(
     both, both_score = both_ways_icp(src, tgt_mid, start, voxel, threshold, forward=(forward, forward_score))
     if abs(math.log(both.scale / forward.scale)) > RESAMPLE_RESCALE:
         fits.append((both, both_score))
-    return fits
+    return [
+        (fit, score, scan_explained_score(downsample(src, voxel / fit.scale), tgt_mid, fit, threshold))
+        for fit, score in fits
+    ]
+
+
+@dataclass(frozen=True)
+class ScoredPart:
+    """What an alignment is scored on (source frame, metres): the whole model, the points used (the functional
+    part or the whole), the focus points and crop radius (None: the whole model), the grip points, and a raw
+    sample of the used points with their surface normals."""
+
+    model: Points
+    used: Points
+    focus: Points | None
+    crop_radius: float | None
+    grip: Points | None
+    raw_sample: Points
+    raw_normals: Points
+
+
+def score_fit(
+    part: ScoredPart,
+    fitted: Similarity,
+    model_score: float,
+    start: str,
+    *,
+    explained_score: float,
+    fine: FineTarget,
+    params: RegistrationParams,
+    sample_scale: float,
+) -> Alignment:
+    """``fitted`` (source onto target) scored on ``part`` against ``fine``: the functional part's fitness and RMSE,
+    its surface RMSE and normal agreement, and the ranking score from the whole models' two-way ``model_score``
+    (``explained_score``: the whole models' fit over the scanned surface, kept for the poor-fit judgement).
+    The used points are downsampled to the fine voxel at ``sample_scale`` (target over source size)."""
+    threshold = fine.threshold
+    score = model_score
+    used_fine = downsample(part.used, fine.fine_voxel / sample_scale)
+    if part.focus is not None and part.crop_radius is not None:
+        score = functional_score(
+            score,
+            fitted,
+            used_fine=used_fine,
+            tgt_fine=fine.fine,
+            tgt_fine_pts=fine.fine_points,
+            focus=part.focus,
+            crop_radius=part.crop_radius,
+            threshold=threshold,
+        )
+    if part.grip is not None:
+        score *= grip_score(part.model, fine.fine_points, part.grip, fitted, params=params, threshold=threshold)
+    fit, rmse = fitness(used_fine, fine.fine, fitted, threshold)
+    plane_rmse, agreement = plane_residuals(
+        part.raw_sample, part.raw_normals, fine.points, fine.normals, fitted, max_distance_m=threshold
+    )
+    return Alignment(fitted, fit, rmse, plane_rmse, agreement, model_score, score, start, explained_score)
 
 
 def register_models(
@@ -258,37 +322,29 @@ def register_models(
         for name, start in kept
         for fit in whole_model_fits(src, fine.mid, start, fine.mid_voxel, mid_threshold)
     ]
-    for name, (whole_fit, model_score) in whole:
-        fitted = whole_fit
-        score = model_score
-        used_fine = downsample(src if foc is None else used, fine.fine_voxel / fitted.scale)
+    part = ScoredPart(src, used if foc is not None else src, foc, crop_radius, grip_pts, raw_sample, raw_normals)
+    for name, (whole_fit, model_score, explained) in whole:
         fitted = refine_planar(
             refine_points,
             tgt,
             fine.normals,
-            fitted,
+            whole_fit,
             threshold=threshold,
             max_rescale=params.max_crop_rescale,
             weights=refine_weights,
         )
-        if foc is not None and crop_radius is not None:
-            score = functional_score(
-                score,
+        alignments.append(
+            score_fit(
+                part,
                 fitted,
-                used_fine=used_fine,
-                tgt_fine=fine.fine,
-                tgt_fine_pts=fine.fine_points,
-                focus=foc,
-                crop_radius=crop_radius,
-                threshold=threshold,
+                model_score,
+                name,
+                explained_score=explained,
+                fine=fine,
+                params=params,
+                sample_scale=whole_fit.scale,
             )
-        if grip_pts is not None:
-            score *= grip_score(src, fine.fine_points, grip_pts, fitted, params=params, threshold=threshold)
-        fit, rmse = fitness(used_fine, fine.fine, fitted, threshold)
-        plane_rmse, agreement = plane_residuals(
-            raw_sample, raw_normals, tgt, fine.normals, fitted, max_distance_m=threshold
         )
-        alignments.append(Alignment(fitted, fit, rmse, plane_rmse, agreement, model_score, score, name))
     order = ranked([a for a in alignments if lo <= a.transform.scale <= hi])
     if not order:
         msg = (

@@ -42,9 +42,10 @@ class RegistrationParams:
     two instances of a built-in scene (other sizes, the same design) fit at 0.14-0.36, a sideboard turned by 90
     degrees at 0.44 (and its two-way score gives it away)."""
     poor_score: float = 0.55
-    """Below this two-way score (how much of each model the other explains) it is poor: a partial scan of the
-    same object scores 0.7 and more, another instance of a scene 0.8 and more, a sideboard turned by 90 degrees
-    0.49, a shrunken source sitting on a patch of the target far less."""
+    """Below this two-way score over the scanned surface (``scoring.scan_explained_score``: how much of the scan
+    the model explains, and of the model where the scan saw it) it is poor: the right fit of a similar object
+    explains most of both, a shrunken source sitting on a patch of the target leaves most of the scan
+    unexplained."""
     poor_rank_score: float = 0.3
     """Below this ranking score (the functional part's and the grasped part's two-way fit) it is poor as well:
     right alignments of the benchmark's pairs score 0.6 and more, a sliding door shrunk onto half of another one
@@ -88,6 +89,8 @@ class Alignment:
     """Ranking score: geometric mean of the source->target and the local target->source fitness."""
     start: str
     """Which global start it came from (``pca-<k>``, ``ransac-<k>``, ``fgr``, ``init``)."""
+    explained_score: float = 1.0
+    """The whole models' two-way fit over the surface the scan saw (``scoring.scan_explained_score``)."""
 
 
 @dataclass(frozen=True)

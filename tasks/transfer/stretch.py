@@ -71,9 +71,20 @@ class Stretched:
         out: FloatArray = self.axes @ np.diag(self.factors) @ self.axes.T
         return out
 
+    def stretch_points(self, points: Points) -> Points:
+        """(n, 3) source points (metres) stretched, still in the source frame (before the similarity)."""
+        out: Points = self.centre + (points - self.centre) @ self.linear().T
+        return out
+
+    def stretch_normals(self, normals: Points) -> Points:
+        """(n, 3) unit surface normals (source frame) of the stretched surface: turned by the inverse stretch."""
+        turned = normals @ np.linalg.inv(self.linear())
+        out: Points = turned / np.maximum(np.linalg.norm(turned, axis=1, keepdims=True), 1e-12)
+        return out
+
     def apply_points(self, points: Points) -> Points:
         """Map (n, 3) source points (metres) into the target frame."""
-        return self.similarity.apply_points(self.centre + (points - self.centre) @ self.linear().T)
+        return self.similarity.apply_points(self.stretch_points(points))
 
     def carry_line(self, pos: Vector3, direction: Vector3) -> tuple[Vector3, Vector3]:
         """The image of the line through ``pos`` along ``direction``: (point, unit direction), target frame."""
