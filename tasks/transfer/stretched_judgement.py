@@ -1,8 +1,8 @@
 """A poor registration judged again as the stretched fit places the source model.
 
 A similar object is the demonstrated one under a similarity and a stretch along its box axes (``stretch``, at
-most ``MAX_STRETCH`` either way): a bottle 1.27 times taller at its cap's scale, or a drawer deeper than it is
-wide, fits no similarity well, and its scores under the best similarity can fall below the poor limits
+most ``MAX_STRETCH`` either way): one of other proportions (taller, or wider at its functional part's scale) fits
+no similarity well, and its scores under the best similarity can fall below the poor limits
 (``RegistrationParams``) where the stretched fit of the same alignment explains the scan. The registration is
 poor only when both fall below them: the limits stay the same, applied to the model the transfer itself fits.
 Lengths in metres (source frame in, target frame out).
@@ -43,17 +43,16 @@ def stretched_alignment(
     fine = prepare_target(target, params)
     stretched_src = stretched.stretch_points(source)
     crop = reg.crop_radius_m
-    functional = focus is not None and crop is not None
-    mask = np.ones(len(source), bool)
+    mask, stretched_focus = np.ones(len(source), bool), None
     if focus is not None and crop is not None:
-        mask = functional_mask(source, focus, crop)
+        mask, stretched_focus = functional_mask(source, focus, crop), stretched.stretch_points(focus)
     used = stretched_src[mask]
     pick = np.linspace(0, used.shape[0] - 1, min(used.shape[0], PLANE_ICP_POINTS)).astype(int)  # an even sample
     normals = stretched.stretch_normals(surface_normals(source, median_spacing(source)))[mask]
     part = ScoredPart(
         stretched_src,
         used,
-        stretched.stretch_points(focus) if functional and focus is not None else None,
+        stretched_focus,
         crop,
         stretched.stretch_points(grip) if grip is not None and len(grip) else None,
         used[pick],
