@@ -226,7 +226,7 @@ def level_noise(t_s: FloatArray, coord: FloatArray, noise: float, count: float) 
     ok = np.isfinite(coord)
     own, tau = series_noise(coord[ok], t_s[ok])
     dt = float(np.median(np.diff(t_s[ok]))) if ok.sum() > 1 else 0.0
-    draws = independent_draws(max(count, 1.0), max(count - 1.0, 0.0) * dt, tau)
+    draws = independent_draws(count, (count - 1.0) * dt, tau)  # one draw at most for a count of one or less
     return max(noise, own) / float(np.sqrt(draws))
 
 

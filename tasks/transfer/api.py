@@ -172,11 +172,18 @@ def transfer_descriptor(
                 f"{math.degrees(unc.registration_dir_std_rad):.2f} deg (one sigma; want <= "
                 f"{MAX_AXIS_POS_STD_M * 1e3:g} mm and {math.degrees(MAX_AXIS_DIR_STD_RAD):g} deg)"
             )
-    judged = reg.best
+    stretched_scores: dict[str, float | None] | None = None
     if reg.poor:
         judged = stretched_alignment(
             source, target, reg, fits.whole, focus=focus if len(focus) else None, grip=grip, params=params
         )
+        stretched_scores = {
+            "fitness": judged.fitness,
+            "plane_rmse_m": _finite(judged.plane_rmse_m),
+            "two_way_score": judged.model_score,
+            "scanned_two_way_score": judged.explained_score,
+            "functional_score": judged.score,
+        }
         poor_sim = [w for w in reg.warnings if w.startswith("poor")]
         if poor_fit_warning(judged, params, reg.threshold_m) is None:
             warnings = [w for w in warnings if w not in poor_sim]
@@ -209,15 +216,7 @@ def transfer_descriptor(
         "axis_spread_mm": spread_m * 1e3,
         "plane_rmse_m": _finite(reg.best.plane_rmse_m),
         "scanned_two_way_score": reg.best.explained_score,
-        "stretched_scores": None
-        if judged is reg.best
-        else {
-            "fitness": judged.fitness,
-            "plane_rmse_m": _finite(judged.plane_rmse_m),
-            "two_way_score": judged.model_score,
-            "scanned_two_way_score": judged.explained_score,
-            "functional_score": judged.score,
-        },
+        "stretched_scores": stretched_scores,
         "scale_range": list(params.scale_range),
         "stretch": {"axes": fits.whole.axes.T.tolist(), "factors": fits.whole.factors.tolist()},
         "refused": poor,

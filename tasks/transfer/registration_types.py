@@ -89,7 +89,7 @@ class Alignment:
     """Ranking score: geometric mean of the source->target and the local target->source fitness."""
     start: str
     """Which global start it came from (``pca-<k>``, ``ransac-<k>``, ``fgr``, ``init``)."""
-    explained_score: float = 1.0
+    explained_score: float
     """The whole models' two-way fit over the surface the scan saw (``scoring.scan_explained_score``)."""
 
 

@@ -43,9 +43,9 @@ def scan_explained_score(source: O3dCloud, target: O3dCloud, fitted: Similarity,
         return 0.0
     to_target, _ = cKDTree(tgt).query(src, distance_upper_bound=SEEN_REACH * threshold)
     seen = np.isfinite(to_target)
-    to_source, _ = cKDTree(src).query(tgt, distance_upper_bound=threshold)
     if not seen.any():
         return 0.0
+    to_source, _ = cKDTree(src).query(tgt, distance_upper_bound=threshold)
     return math.sqrt(float(np.mean(to_target[seen] <= threshold)) * float(np.mean(np.isfinite(to_source))))
 
 

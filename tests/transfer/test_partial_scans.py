@@ -69,7 +69,7 @@ def test_grip_ball_tells_a_knob_from_the_bare_face_but_not_a_fine_offset() -> No
 def test_a_poor_functional_and_grip_fit_is_poor_even_when_the_whole_models_fit() -> None:
     params, threshold = RegistrationParams(), 0.027  # surface RMSE 0.35 x the threshold, as on that pair
     # the sliding-door pair of the benchmark shrunk onto half of the other door: whole-model score 0.59
-    shrunk = Alignment(Similarity.identity(), 0.89, 0.006, 0.0094, 0.8, 0.59, 0.12, "pca-3")
+    shrunk = Alignment(Similarity.identity(), 0.89, 0.006, 0.0094, 0.8, 0.59, 0.12, "pca-3", 0.59)
     warning = poor_fit_warning(shrunk, params, threshold)
     assert warning is not None
     assert "functional and grip score 0.12 (want >= 0.3)" in warning
