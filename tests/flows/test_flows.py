@@ -12,7 +12,10 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from prefect import flow, get_client
 from prefect.client.schemas.objects import State
+from prefect.states import Failed
+from prefect.utilities.engine import propose_state_sync
 
 from flows.caching import results_dir
 from flows.content_ids import MEMO_FILENAME
@@ -21,7 +24,8 @@ from flows.reprocess_archive import reprocess_archive
 from flows.stages import ingest as ingest_module
 from flows.stages import learn as learn_module
 from flows.stages import simulate as simulate_module
-from flows.summary import summary_of
+from flows.summary import RunSummary, finish, summary_of
+from tasks.report.refs import EntryResult
 from tasks.store import Store
 from tasks.synth.record import synthesize
 from tests.flows.recordings import write_door_recording
@@ -184,3 +188,20 @@ def test_cache_survives_a_new_process_and_prefect_home(prefect_harness: None, ar
     assert summary["counts"]["unchanged"] == 3, summary
     after = {p.name: p.stat().st_mtime_ns for p in results_dir(store).iterdir() if p.name != MEMO_FILENAME}
     assert after == before  # no stage ran: no result record was written or rewritten
+
+
+@flow(name="pbd-test-one-failed-recording", persist_result=False)
+def one_failed_recording() -> RunSummary | State[Any]:
+    """A run whose one recording failed: a Failed state holding the summary."""
+    return finish([EntryResult(source="takes/take-1.mcap", error="truncated chunk")], None)
+
+
+def test_a_run_keeps_its_summary_when_the_server_answers_with_its_own_state(prefect_harness: None) -> None:
+    state = one_failed_recording(return_state=True)
+    run_id = state.state_details.flow_run_id
+    assert run_id is not None
+    with get_client(sync_client=True) as client:  # a retried final proposal: the run is already final on the server
+        answer = propose_state_sync(client, Failed(message=state.message), flow_run_id=run_id)
+    assert answer is not state and answer.is_failed() and answer.message == state.message
+    summary = summary_of(answer)
+    assert summary["counts"]["failed"] == 1 and summary["entries"][0]["error"] == "truncated chunk"
