@@ -22,7 +22,7 @@ the paper's plain-ICP transfer, the untransferred descriptor on B and the learne
 
     .venv/bin/python bench/transfer.py [--quick] [--pairs N] [--scene-pairs N] [--seed N]
     .venv/bin/python bench/transfer.py --simulate [--pairs N] [--seed N] [--scene NAME]
-    .venv/bin/python bench/transfer.py --families [--pairs N] [--family F] [--dev-only | --held-out-only]
+    .venv/bin/python bench/transfer.py --families [--pairs N] [--family F] [--dev-only | --held-out-only] [--points N]
 """
 
 from __future__ import annotations
@@ -626,8 +626,13 @@ def print_calibration(rows: list[FamilyRow]) -> None:
             )
 
 
-def run_families(seeds: tuple[int, ...], title: str, families: tuple[str, ...]) -> list[FamilyRow]:
-    """Every family's pairs of ``seeds``: one printed row per pair, then the summary."""
+def run_families(
+    seeds: tuple[int, ...], title: str, families: tuple[str, ...], points: int | None = None
+) -> list[FamilyRow]:
+    """Every family's pairs of ``seeds``: one printed row per pair, then the summary; ``points``: surface samples
+    of each full model instead of the family's default (``make_pair``)."""
+    if points is not None:
+        title = f"{title}, {points} points per model"
     print(f"\n{title}: seeds {', '.join(map(str, seeds))}")
     print(
         f"{'family':10} {'seed':>5} {'stretch':>14} {'keep':>4} {'v':>1} {'tilt':>4} | {'ours deg':>8} {'mm':>6} "
@@ -636,7 +641,7 @@ def run_families(seeds: tuple[int, ...], title: str, families: tuple[str, ...]) 
     rows = []
     for seed in seeds:
         for family in families:
-            pair = make_pair(family, seed)
+            pair = make_pair(family, seed, points)
             t0 = time.process_time()
             row = run_family_pair(pair)
             rows.append(row)
@@ -670,6 +675,9 @@ def main() -> None:
     parser.add_argument(
         "--extra-seeds", metavar="A-B", help="with --families: further development pairs A..B only (not held out)"
     )
+    parser.add_argument(
+        "--points", type=int, help="with --families: surface samples of each full model (another draw of each pair)"
+    )
     args = parser.parse_args()
     if args.families:
         families = tuple(args.family or FAMILIES)
@@ -678,17 +686,17 @@ def main() -> None:
             extra = tuple(range(first, last + 1))
             if set(extra) & set(FAMILY_HELDOUT_SEEDS):
                 parser.error("--extra-seeds: the held-out seeds 1000-1019 are not development pairs")
-            run_families(extra, "further development pairs", families)
+            run_families(extra, "further development pairs", families, args.points)
             return
         count = 1 if args.quick else args.pairs
         dev, held_out = FAMILY_DEV_SEEDS[:count], FAMILY_HELDOUT_SEEDS[:count]
         if args.only is not None:
-            run_families((args.only,), "chosen pair", families)
+            run_families((args.only,), "chosen pair", families, args.points)
             return
         if not args.held_out_only:
-            run_families(dev, "development pairs", families)
+            run_families(dev, "development pairs", families, args.points)
         if not args.dev_only:
-            run_families(held_out, "held-out pairs", families)
+            run_families(held_out, "held-out pairs", families, args.points)
         return
     if args.simulate:
         run_simulation(args.pairs or (3 if args.quick else 10), args.seed, args.scene)

@@ -20,6 +20,7 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from schemas.descriptor import Primitive
 from tasks.arrays import FloatArray, Points, Vector3
@@ -27,6 +28,7 @@ from tasks.transfer.clouds import median_spacing
 from tasks.transfer.face_edge import EdgeUpdate, edge_update, model_edges
 from tasks.transfer.face_normals import ModelNormals, model_normals
 from tasks.transfer.local_refine import LocalParams, axis_region, region_size
+from tasks.transfer.neighbourhood_search import search_start
 from tasks.transfer.registration import surface_normals
 from tasks.transfer.similarity import Similarity, angle_between_deg, point_line_distance
 from tasks.transfer.stretch import (
@@ -52,6 +54,12 @@ something, a face the scan lacks, a wrong pairing), the scan does not say which,
 widened so that three of it cover the disagreement; within that, the kept fit's own sigma stands."""
 MIN_REGION_PAIRS = 60
 """Fewer matched neighbourhood points than this: the neighbourhood does not place the axis."""
+LOCAL_SPACINGS = 3.0
+"""A neighbourhood found by its own features (``neighbourhood_search``) is sought and fitted at the registration's
+threshold halved down to three of the scan's median point spacings (its pairs still find their surface at that
+sampling) or a quarter of the threshold. The threshold grows with the whole object (about a door's diagonal / 100:
+22 mm), the features that pin an axis do not (a lever 20 mm tall): within 22 mm a lever 19 mm off pairs with
+itself."""
 
 
 @dataclass(frozen=True)
@@ -107,12 +115,15 @@ def fit_axis(
     grip: Points,
     radius_m: float,
     threshold_m: float,
+    spacing_m: float,
 ) -> AxisFit:
     """The fit carrying ``prim`` (source frame) onto ``target`` by point-to-plane pairs: its neighbourhood's
     rigid fit from ``whole`` when that pins it, else ``whole``. ``model``: the source's normals and plane weights
     (``face_normals``);
     ``whole_points``: the points, normals and plane weights ``whole`` was fitted with;
-    ``grip``: (g, 3) grasped-part points, whose ball joins the neighbourhood of an axis within ``radius_m``."""
+    ``grip``: (g, 3) grasped-part points, whose ball joins the neighbourhood of an axis within ``radius_m``;
+    ``spacing_m``: the target's median point spacing, which bounds the distance a searched neighbourhood is fitted
+    at (``LOCAL_SPACINGS``)."""
     direction = np.asarray(prim.dir, dtype=np.float64)
     direction = direction / np.linalg.norm(direction)
     pos = np.asarray(prim.pos, dtype=np.float64) if prim.pos is not None else whole.centre
@@ -138,8 +149,25 @@ def fit_axis(
     if int(mask.sum()) < MIN_REGION_PAIRS or lateral_pinning(model.normals[informs], direction) < MIN_LATERAL:
         return AxisFit(whole, global_spread, local=False)
     region, normals, weight = source[mask], model.normals[mask], model.plane_weight[mask]
+    distances = [2.0 * threshold_m, threshold_m]
+    fine = threshold_m
+    while fine / 2.0 >= max(LOCAL_SPACINGS * spacing_m, threshold_m / 4.0):
+        fine /= 2.0
+    search = search_start(
+        whole,
+        region,
+        normals,
+        cKDTree(target),
+        line=line,
+        sigma_m=global_spread.worst_pos_std_m,
+        radius_m=radius_m,
+        dist_m=fine,
+        reach_m=distances[0],
+    )
     fitted = whole
-    for dist in (2.0 * threshold_m, threshold_m):
+    if search is not None:  # found at the features' own scale: the fit goes on there, wider stages would leave them
+        fitted, distances = search.start, [2.0 * fine, fine]
+    for dist in distances:
         fitted = stretch_icp(
             region,
             target,
@@ -148,7 +176,7 @@ def fit_axis(
             dist,
             source_normals=normals,
             free_stretch=False,
-            final_m=threshold_m,
+            final_m=distances[-1],
         )
     spread = line_spread(
         fitted,
@@ -156,7 +184,7 @@ def fit_axis(
         normals,
         target=target,
         target_normals=target_normals,
-        dist_m=threshold_m,
+        dist_m=distances[-1],
         line=line,
         free_stretch=False,
         plane_weight=weight,
@@ -170,6 +198,8 @@ def fit_axis(
     shift = point_line_distance(local_pos, whole_pos, whole_dir)
     turn = math.radians(angle_between_deg(local_dir, whole_dir))
     own = spread.pos_std_m
+    if search is not None and search.spread_m > AGREEMENT_SIGMAS * spread.pos_std_m:  # the scan tells them not apart
+        spread = replace(spread, pos_std_m=search.spread_m / AGREEMENT_SIGMAS)
     if shift > AGREEMENT_SIGMAS * math.hypot(spread.pos_std_m, global_spread.pos_std_m):
         spread = replace(spread, pos_std_m=max(spread.pos_std_m, shift / AGREEMENT_SIGMAS))
     if global_spread.dir_std_rad < spread.dir_std_rad:  # the whole model turns the axis more surely (a door's leaf)
@@ -264,6 +294,7 @@ def fit_axes(
                 grip=grip,
                 radius_m=radius,
                 threshold_m=threshold_m,
+                spacing_m=spacing_m,
             ),
             prim,
             source=source,

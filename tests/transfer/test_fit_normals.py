@@ -123,7 +123,7 @@ def _hinge_fit(rng: np.random.Generator, whole_shift_m: float) -> AxisFit:
     return fit_axis(
         prim, source, model, target, target_n, whole=whole,
         whole_points=(source, model.normals, model.plane_weight), grip=np.empty((0, 3)), radius_m=0.08,
-        threshold_m=0.015,
+        threshold_m=0.015, spacing_m=median_spacing(target),
     )  # fmt: skip
 
 
