@@ -32,6 +32,7 @@ from tasks.transfer.neighbourhood_search import search_start
 from tasks.transfer.registration import surface_normals
 from tasks.transfer.similarity import Similarity, angle_between_deg, point_line_distance
 from tasks.transfer.stretch import (
+    POINT_WEIGHT,
     STRETCH_POINTS,
     FitSpread,
     Stretched,
@@ -164,6 +165,11 @@ def fit_axis(
         dist_m=fine,
         reach_m=distances[0],
     )
+    # The point-to-point terms see a face's edge, where the planes do not. About an axis no face's edge runs along
+    # (a lever's spindle, a cap's axis) they add only the pull of parts the scan shows from one side, where a model
+    # point's nearest scan point is not centred on it: they moved a lever's spindle 2-4 mm across with a sigma
+    # under 0.5 mm. A hinge keeps them: its door's edge is what they see.
+    point_weight = POINT_WEIGHT if model_edges(source, model, line=line, radius_m=radius_m) else 0.0
     fitted = whole
     if search is not None:  # found at the features' own scale: the fit goes on there, wider stages would leave them
         fitted, distances = search.start, [2.0 * fine, fine]
@@ -177,6 +183,7 @@ def fit_axis(
             source_normals=normals,
             free_stretch=False,
             final_m=distances[-1],
+            point_weight=point_weight,
         )
     spread = line_spread(
         fitted,

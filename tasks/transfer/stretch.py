@@ -182,11 +182,13 @@ def _linear_system(
     along: FloatArray,
     huber: float,
     plane_weight: FloatArray | None = None,
+    point_weight: float = POINT_WEIGHT,
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Rows, residuals and robust weights of one linearised step: each pair's point-to-plane residual (``n``:
     the carried source normals, unit, target frame; times ``plane_weight``, 0 where the model's normal states no
     plane: ``face_normals``) and, at
-    ``POINT_WEIGHT``, its three point-to-point components (which see a face's edge, where the planes do not).
+    ``point_weight`` (default ``POINT_WEIGHT``), its three point-to-point components (which see a face's edge,
+    where the planes do not; none at 0).
     Unknowns: small rotation about the pairs' centroid (3), translation (3), relative factor changes (3)."""
     centre = p.mean(axis=0)
     sim = current.similarity
@@ -198,12 +200,12 @@ def _linear_system(
     if plane_weight is not None:
         plane, plane_res = plane * plane_weight[:, None], plane_res * plane_weight
     rows, res = [plane], [plane_res]
-    for j in range(3):
+    for j in range(3 if point_weight > 0.0 else 0):
         e = np.zeros(3)
         e[j] = 1.0
         rot_j = np.cross(d, e)
-        rows.append(POINT_WEIGHT * np.hstack([rot_j, np.tile(e, (len(p), 1)), d_stretch * turned_axes[j]]))
-        res.append(POINT_WEIGHT * (q - p)[:, j])
+        rows.append(point_weight * np.hstack([rot_j, np.tile(e, (len(p), 1)), d_stretch * turned_axes[j]]))
+        res.append(point_weight * (q - p)[:, j])
     a, residual = np.vstack(rows), np.concatenate(res)
     w = np.minimum(1.0, huber / np.maximum(np.abs(residual), 1e-12))
     return a, residual, w
@@ -258,13 +260,15 @@ def stretch_icp(
     iterations: int = 30,
     free_stretch: bool = True,
     final_m: float | None = None,
+    point_weight: float = POINT_WEIGHT,
 ) -> Stretched:
     """Refine ``start`` by point-to-plane ICP over rotation, translation and (``free_stretch``) the three
     stretch factors; source (n, 3) and target (m, 3) metres, ``source_normals`` (n, 3) and ``target_normals``
     (m, 3) unit (unsigned). The residuals lie along the carried source normals; pairs whose normals disagree
     are left out: a face the scan missed would pull the model's edges in. ``final_m``: the last stage's
     correspondence distance, which sets the nearest-surface slack (``NEAREST_SLACK``; default ``max_distance_m``).
-    ``start`` when too few pairs match."""
+    ``point_weight``: the point-to-point components' weight (``_linear_system``). ``start`` when too few pairs
+    match."""
     tree = cKDTree(target)
     current = start
     huber = max_distance_m / 3.0
@@ -285,7 +289,7 @@ def stretch_icp(
         if int(ok.sum()) < 12:
             return current
         p, q, n = moved[ok], target[idx[ok]], turned[ok]
-        a, residual, w = _linear_system(current, p, q, n, along=along[ok], huber=huber)
+        a, residual, w = _linear_system(current, p, q, n, along=along[ok], huber=huber, point_weight=point_weight)
         a = a[:, :unknowns]
         normal = (a * w[:, None]).T @ a
         ridge = np.zeros(unknowns)
