@@ -17,15 +17,15 @@ covariance (``with_edges``, ``face_edge``). Lengths in metres.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from schemas.descriptor import Primitive
 from tasks.arrays import FloatArray, Points, Vector3
 from tasks.transfer.clouds import median_spacing
-from tasks.transfer.face_edge import EdgeUpdate, edge_update, model_edges
+from tasks.transfer.face_edge import EdgeUpdate, ModelEdge, edge_update, model_edges
 from tasks.transfer.face_normals import ModelNormals, model_normals
 from tasks.transfer.local_refine import LocalParams, axis_region, region_size
 from tasks.transfer.neighbourhood_search import search_start
@@ -117,6 +117,7 @@ def fit_axis(
     radius_m: float,
     threshold_m: float,
     spacing_m: float,
+    edges: Sequence[ModelEdge],
 ) -> AxisFit:
     """The fit carrying ``prim`` (source frame) onto ``target`` by point-to-plane pairs: its neighbourhood's
     rigid fit from ``whole`` when that pins it, else ``whole``. ``model``: the source's normals and plane weights
@@ -124,7 +125,7 @@ def fit_axis(
     ``whole_points``: the points, normals and plane weights ``whole`` was fitted with;
     ``grip``: (g, 3) grasped-part points, whose ball joins the neighbourhood of an axis within ``radius_m``;
     ``spacing_m``: the target's median point spacing, which bounds the distance a searched neighbourhood is fitted
-    at (``LOCAL_SPACINGS``)."""
+    at (``LOCAL_SPACINGS``); ``edges``: the model's face edges along the axis (``axis_edges``)."""
     direction = np.asarray(prim.dir, dtype=np.float64)
     direction = direction / np.linalg.norm(direction)
     pos = np.asarray(prim.pos, dtype=np.float64) if prim.pos is not None else whole.centre
@@ -158,7 +159,7 @@ def fit_axis(
         whole,
         region,
         normals,
-        cKDTree(target),
+        target,
         line=line,
         sigma_m=global_spread.worst_pos_std_m,
         radius_m=radius_m,
@@ -169,7 +170,7 @@ def fit_axis(
     # (a lever's spindle, a cap's axis) they add only the pull of parts the scan shows from one side, where a model
     # point's nearest scan point is not centred on it: they moved a lever's spindle 2-4 mm across with a sigma
     # under 0.5 mm. A hinge keeps them: its door's edge is what they see.
-    point_weight = POINT_WEIGHT if model_edges(source, model, line=line, radius_m=radius_m) else 0.0
+    point_weight = POINT_WEIGHT if edges else 0.0
     fitted = whole
     if search is not None:  # found at the features' own scale: the fit goes on there, wider stages would leave them
         fitted, distances = search.start, [2.0 * fine, fine]
@@ -220,20 +221,26 @@ def fit_axis(
     return AxisFit(fitted, spread, local=True, whole_shift_m=shift, whole_turn_rad=turn, fit_pos_std_m=own)
 
 
-def with_edges(
-    axis: AxisFit, prim: Primitive, *, source: Points, model: ModelNormals, target: Points, radius_m: float
-) -> AxisFit:
-    """``axis`` updated by the edges of the model's flat faces that ``prim``'s axis runs along (``face_edge``):
-    its placement moved and its position sigma narrowed, or widened where an edge contradicts it."""
+def axis_edges(prim: Primitive, source: Points, model: ModelNormals, radius_m: float) -> list[ModelEdge]:
+    """The edges of the model's flat faces that ``prim``'s axis runs along (``face_edge.model_edges``; none for
+    a translation or a rotation without an axis point)."""
+    if prim.kind != "rotation" or prim.pos is None:
+        return []
+    direction = np.asarray(prim.dir, dtype=np.float64)
+    line = (np.asarray(prim.pos, dtype=np.float64), direction / np.linalg.norm(direction))
+    return model_edges(source, model, line=line, radius_m=radius_m)
+
+
+def with_edges(axis: AxisFit, prim: Primitive, *, found: Sequence[ModelEdge], target: Points) -> AxisFit:
+    """``axis`` updated by ``found``, the edges of the model's flat faces that ``prim``'s axis runs along
+    (``axis_edges``): its placement moved and its position sigma narrowed, or widened where an edge contradicts
+    it."""
     cov = axis.spread.scaled_cov()
-    if prim.kind != "rotation" or prim.pos is None or cov is None:
+    if not found or prim.pos is None or cov is None:
         return axis
     pos = np.asarray(prim.pos, dtype=np.float64)
     direction = np.asarray(prim.dir, dtype=np.float64)
     direction = direction / np.linalg.norm(direction)
-    found = model_edges(source, model, line=(pos, direction), radius_m=radius_m)
-    if not found:
-        return axis
     carried = axis.start(pos, direction)
     updates: list[EdgeUpdate] = []
     shift = np.zeros(3)
@@ -288,6 +295,7 @@ def fit_axes(
         centre=source.mean(axis=0),
     )
     _, radius = region_size(source, LocalParams())
+    edges = [axis_edges(prim, source, model, radius) for prim in chain]
     fits = tuple(
         with_edges(
             fit_axis(
@@ -302,14 +310,13 @@ def fit_axes(
                 radius_m=radius,
                 threshold_m=threshold_m,
                 spacing_m=spacing_m,
+                edges=found,
             ),
             prim,
-            source=source,
-            model=model,
+            found=found,
             target=target,
-            radius_m=radius,
         )
-        for prim in chain
+        for prim, found in zip(chain, edges, strict=True)
     )
     starts = []
     for prim, fit in zip(chain, fits, strict=True):

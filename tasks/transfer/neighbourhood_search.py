@@ -26,6 +26,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from tasks.arrays import Points, Vector3
+from tasks.fit.geometry import perpendicular_basis
 from tasks.transfer.similarity import Similarity
 from tasks.transfer.stretch import CORRELATED_POINTS, Stretched
 
@@ -47,25 +48,15 @@ class SearchResult:
     """The start chosen for the neighbourhood's fit and how far apart equally good starts lie."""
 
     start: Stretched
-    offset_m: float
-    """How far the chosen start lies from the whole model's placement, metres."""
     spread_m: float
     """Largest distance from the chosen offset to another as good, metres (0: none farther than the distance)."""
-
-
-def across_basis(direction: Vector3) -> tuple[Vector3, Vector3]:
-    """Two unit vectors square to unit ``direction`` and to each other."""
-    helper = np.eye(3)[int(np.argmin(np.abs(direction)))]
-    u = np.cross(direction, helper)
-    u /= np.linalg.norm(u)
-    return u, np.cross(direction, u)
 
 
 def search_start(
     whole: Stretched,
     region: Points,
     normals: Points,
-    target: cKDTree,
+    target: Points,
     *,
     line: tuple[Vector3, Vector3],
     sigma_m: float,
@@ -74,7 +65,7 @@ def search_start(
     reach_m: float,
 ) -> SearchResult | None:
     """The start for the fit of ``region`` (source frame, its unit ``normals``) about ``line`` (source point, unit
-    direction), from ``whole`` whose sigma across the axis is ``sigma_m``; ``target``: the scan's tree; ``dist_m``:
+    direction), from ``whole`` whose sigma across the axis is ``sigma_m``; ``target``: the scan (m, 3); ``dist_m``:
     the fit's last correspondence distance and ``reach_m`` its first; ``radius_m``: the neighbourhood's radius
     (source metres). None when the fit reaches where the whole model may have put the axis (three sigmas within
     ``reach_m``), no point pins the axis, or the whole model's placement scores as well as the best offset."""
@@ -87,13 +78,14 @@ def search_start(
         return None
     carried = whole.apply_points(region[pins])
     _, axis_dir = whole.carry_line(pos, direction)
-    u, v = across_basis(axis_dir)
+    u, v = perpendicular_basis(axis_dir)
+    tree = cKDTree(target)  # only when searching: the scan may hold hundreds of thousands of points
     step = max(dist_m / 2.0, extent / MAX_STEPS)
     ticks = step * np.arange(-math.floor(extent / step), math.floor(extent / step) + 1)
     offsets = np.array([(a, b) for a in ticks for b in ticks if a * a + b * b <= extent * extent + 1e-12])
     scores = np.empty(len(offsets))
     for k, (a, b) in enumerate(offsets):
-        dist, _ = target.query(carried + a * u + b * v, distance_upper_bound=dist_m)
+        dist, _ = tree.query(carried + a * u + b * v, distance_upper_bound=dist_m)
         scores[k] = float(np.isfinite(dist).mean())
     best = int(np.argmax(scores))
     n_eff = carried.shape[0] / CORRELATED_POINTS
@@ -103,11 +95,10 @@ def search_start(
     apart = np.linalg.norm(offsets - offsets[best], axis=1)
     alike = (scores >= scores[best] - noise) & (apart > ONE_PEAK_DISTANCES * dist_m)
     a, b = offsets[best]
-    shift = a * u + b * v
     start = Stretched(
-        Similarity(whole.similarity.scale, whole.similarity.rotation, whole.similarity.translation + shift),
+        Similarity(whole.similarity.scale, whole.similarity.rotation, whole.similarity.translation + a * u + b * v),
         whole.axes,
         whole.factors,
         whole.centre,
     )
-    return SearchResult(start, float(np.linalg.norm(shift)), float(apart[alike].max()) if alike.any() else 0.0)
+    return SearchResult(start, float(apart[alike].max()) if alike.any() else 0.0)

@@ -29,6 +29,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from tasks.arrays import FloatArray, Points, Vector3
+from tasks.fit.geometry import perpendicular_basis
 from tasks.transfer.local_refine import axis_region
 from tasks.transfer.stretch import across_std, worst_std
 
@@ -78,15 +79,6 @@ class SymmetryFit:
         return worst_std(self.pos_cov)
 
 
-def _basis(direction: Vector3) -> tuple[Vector3, Vector3]:
-    """Two unit vectors perpendicular to unit ``direction`` and to each other."""
-    helper = np.array([1.0, 0.0, 0.0]) if abs(direction[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    u = np.cross(direction, helper)
-    u /= np.linalg.norm(u)
-    v = np.cross(direction, u)
-    return u, v
-
-
 def fit_symmetry_axis(
     points: Points, normals: Points, pos: Vector3, direction: Vector3, radius_m: float, *, loss_scale_m: float
 ) -> SymmetryFit | None:
@@ -127,7 +119,7 @@ def _fit(
     if int(side.sum()) < MIN_POINTS:
         return None
     rel = points[side] - pos
-    u, v = _basis(direction)
+    u, v = perpendicular_basis(direction)
     x, y, h = rel @ u, rel @ v, rel @ direction
     origin = float(h.min()) if slices[0] is None else slices[0]
     slice_of = np.clip(np.floor((h - origin) / slices[1]).astype(np.intp), 0, None)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from schemas.descriptor import Primitive
-from tasks.transfer.axis_fit import AGREEMENT_SIGMAS, AxisFit, fit_axis
+from tasks.transfer.axis_fit import AGREEMENT_SIGMAS, AxisFit, axis_edges, fit_axis
 from tasks.transfer.clouds import median_spacing
 from tasks.transfer.face_normals import model_normals
 from tasks.transfer.registration import surface_normals
@@ -123,7 +123,7 @@ def _hinge_fit(rng: np.random.Generator, whole_shift_m: float) -> AxisFit:
     return fit_axis(
         prim, source, model, target, target_n, whole=whole,
         whole_points=(source, model.normals, model.plane_weight), grip=np.empty((0, 3)), radius_m=0.08,
-        threshold_m=0.015, spacing_m=median_spacing(target),
+        threshold_m=0.015, spacing_m=median_spacing(target), edges=axis_edges(prim, source, model, 0.08),
     )  # fmt: skip
 
 

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from tasks.arrays import Points
 from tasks.transfer.neighbourhood_search import search_start
@@ -46,7 +45,7 @@ def panel_with(levers: list[np.ndarray]) -> list[Part]:
     return parts
 
 
-def model_and_scan(levers: list[np.ndarray], seed: int) -> tuple[Points, Points, cKDTree]:
+def model_and_scan(levers: list[np.ndarray], seed: int) -> tuple[Points, Points, Points]:
     """The demonstrated panel's region about the spindle (one lever, 0.5 mm noise) with its normals, and a scan
     of a panel with ``levers`` from its front (1.5 mm noise)."""
     rng = np.random.default_rng(seed)
@@ -57,7 +56,7 @@ def model_and_scan(levers: list[np.ndarray], seed: int) -> tuple[Points, Points,
     view = np.array([0.3, -0.2, 1.0]) / np.linalg.norm([0.3, -0.2, 1.0])
     seen = scan_normals @ view > 0.1
     scan = scan[seen] + rng.normal(scale=1.5e-3, size=(int(seen.sum()), 3))
-    return source, normals[near], cKDTree(scan)
+    return source, normals[near], scan
 
 
 def placed_off(start: Stretched) -> float:
