@@ -28,6 +28,7 @@ from scipy.spatial import cKDTree
 
 from tasks.arrays import FloatArray, Points, Vector3
 from tasks.transfer.face_normals import plane_holds
+from tasks.transfer.pairing import nearest_compatible
 from tasks.transfer.similarity import Similarity, rotation_onto
 
 MAX_STRETCH = 1.5
@@ -230,14 +231,11 @@ def _matched(
     slack_m: float,
 ) -> tuple[Points, Points, np.ndarray, np.ndarray]:
     """The moved source and its carried normals, the indices of the target points paired with them, and which
-    pairs count (within ``dist_m``, normals agreeing within ``NORMAL_COS``, the nearest surface within
-    ``slack_m``: ``NEAREST_SLACK``)."""
+    pairs count: the nearest scan point within ``dist_m`` whose normal agrees within ``NORMAL_COS``
+    (``pairing``), whose own nearest model surface is the pair's within ``slack_m`` (``NEAREST_SLACK``)."""
     moved = current.apply_points(source)
-    dist, idx = tree.query(moved, distance_upper_bound=dist_m)
-    ok = np.isfinite(dist)
     turned = carried_normals(current, source_normals)
-    agree = np.abs(np.einsum("ij,ij->i", turned[ok], target_normals[idx[ok]]))
-    ok[ok] &= agree >= NORMAL_COS
+    idx, ok = nearest_compatible(tree, moved, turned, target_normals, dist_m=dist_m, min_cos=NORMAL_COS)
     if not ok.any():
         return moved, turned, idx, ok
     q = tree.data[idx[ok]]
