@@ -21,6 +21,9 @@ FIRST_K = 8
 """Neighbours asked for first: on a face away from its borders the nearest scan point already agrees."""
 GROWTH = 4
 """Each further round asks the points still unpaired for this many times more neighbours."""
+CHUNK = 1 << 20
+"""At most this many neighbours are held at once (about 50 MB with their normals): a dense scan holds tens of
+thousands of points within a wide distance of a face it does not show."""
 
 
 def nearest_compatible(
@@ -42,17 +45,20 @@ def nearest_compatible(
     pending = np.arange(len(points))
     k = min(FIRST_K, n_target)
     while len(pending) and k > 0:
-        dist, near = tree.query(points[pending], k=k, distance_upper_bound=dist_m)
-        dist, near = dist.reshape(len(pending), -1), near.reshape(len(pending), -1)
-        within = np.isfinite(dist)
-        safe = np.where(within, near, 0)
-        agree = within & (np.abs(np.einsum("ikj,ij->ik", target_normals[safe], normals[pending])) >= min_cos)
-        first = np.argmax(agree, axis=1)
-        hit = agree[np.arange(len(pending)), first]
-        idx[pending[hit]] = safe[hit, first[hit]]
-        found[pending[hit]] = True
+        further = []
+        for chunk in np.array_split(pending, min(len(pending), max(1, len(pending) * k // CHUNK))):
+            dist, near = tree.query(points[chunk], k=k, distance_upper_bound=dist_m)
+            dist, near = dist.reshape(len(chunk), -1), near.reshape(len(chunk), -1)
+            within = np.isfinite(dist)
+            safe = np.where(within, near, 0)
+            agree = within & (np.abs(np.einsum("ikj,ij->ik", target_normals[safe], normals[chunk])) >= min_cos)
+            first = np.argmax(agree, axis=1)
+            hit = agree[np.arange(len(chunk)), first]
+            idx[chunk[hit]] = safe[hit, first[hit]]
+            found[chunk[hit]] = True
+            further.append(chunk[~hit & within[:, -1]])  # all k within the distance, none agrees: there may be more
         if k >= n_target:
             break
-        pending = pending[~hit & within[:, -1]]  # all k within the distance and none agrees: there may be more
+        pending = np.concatenate(further)
         k = min(k * GROWTH, n_target)
     return idx, found

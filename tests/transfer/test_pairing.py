@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from scipy.spatial import cKDTree
 
+from tasks.transfer import pairing
 from tasks.transfer.pairing import nearest_compatible
 from tasks.transfer.stretch import NORMAL_COS
 
@@ -54,3 +56,16 @@ def test_an_edge_beyond_the_distance_is_not_paired() -> None:
     )
     assert not found[0]
     assert idx[0] == len(scan)
+
+
+def test_held_in_chunks_the_pairs_are_the_same(monkeypatch: pytest.MonkeyPatch) -> None:
+    scan, scan_normals = _slab_scan(0.002, edge_x=0.03)
+    tree = cKDTree(scan)
+    rng = np.random.default_rng(3)
+    model = rng.uniform([-0.1, -0.1, -0.04], [0.05, 0.1, 0.0], size=(300, 3))
+    facing = np.where(rng.random(300)[:, None] < 0.5, [1.0, 0.0, 0.0], [0.0, 0.0, 1.0])
+    whole = nearest_compatible(tree, model, facing, scan_normals, dist_m=0.05, min_cos=NORMAL_COS)
+    monkeypatch.setattr(pairing, "CHUNK", 64)
+    chunked = nearest_compatible(tree, model, facing, scan_normals, dist_m=0.05, min_cos=NORMAL_COS)
+    assert whole[1].sum() > 200  # the edge face is out of reach of the x-facing points beyond x = -0.02
+    assert np.array_equal(whole[0], chunked[0]) and np.array_equal(whole[1], chunked[1])
