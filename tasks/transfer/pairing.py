@@ -18,7 +18,9 @@ from scipy.spatial import cKDTree
 from tasks.arrays import Points
 
 FIRST_K = 8
-"""Neighbours asked for first: on a face away from its borders the nearest scan point already agrees."""
+"""Neighbours asked for first: on a face away from its borders one of the nearest few agrees even where the
+scan's estimated normals tilt with its noise, so most points are paired in one query (the result does not depend
+on it: ``bench/pairing.py`` prints the time)."""
 GROWTH = 4
 """Each further round asks the points still unpaired for this many times more neighbours."""
 CHUNK = 1 << 20

@@ -262,8 +262,9 @@ def stretch_icp(
 ) -> Stretched:
     """Refine ``start`` by point-to-plane ICP over rotation, translation and (``free_stretch``) the three
     stretch factors; source (n, 3) and target (m, 3) metres, ``source_normals`` (n, 3) and ``target_normals``
-    (m, 3) unit (unsigned). The residuals lie along the carried source normals; pairs whose normals disagree
-    are left out: a face the scan missed would pull the model's edges in. ``final_m``: the last stage's
+    (m, 3) unit (unsigned). The residuals lie along the carried source normals; a model point pairs only with
+    scan points whose normals agree (``_matched``): a face the scan missed would pull the model's edges in.
+    ``final_m``: the last stage's
     correspondence distance, which sets the nearest-surface slack (``NEAREST_SLACK``; default ``max_distance_m``).
     ``point_weight``: the point-to-point components' weight (``_linear_system``). ``start`` when too few pairs
     match."""
