@@ -170,7 +170,7 @@ def global_starts(
         metric = norm_t.inverse().compose(fitted.compose(norm_s))
         if all(distinct(metric, other, span_t) for _, other in kept):
             kept.append((name, metric))
-        if len(kept) >= params.keep:
+        if params.keep is not None and len(kept) >= params.keep:
             break
 
     centre_s = src.mean(axis=0)

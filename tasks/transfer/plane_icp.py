@@ -47,11 +47,14 @@ def plane_similarity_icp(
     with_scale: bool = True,
     min_matches: int = 12,
     weights: FloatArray | None = None,
+    tree: cKDTree | None = None,
 ) -> Similarity:
     """Refine ``init`` (source -> target, metres) by point-to-plane ICP with scale; ``init`` when it cannot.
 
-    ``weights``: (n,) per source point (default 1), multiplied into the Huber weights."""
-    tree = cKDTree(target)
+    ``weights``: (n,) per source point (default 1), multiplied into the Huber weights; ``tree``: a KD-tree of
+    ``target`` (built here when None; a dense scan's tree costs more than an ICP run, so callers refining many
+    starts pass one)."""
+    tree = cKDTree(target) if tree is None else tree
     current = init
     huber = max_distance_m / 3.0
     for _ in range(iterations):

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import open3d as o3d
+from scipy.spatial import cKDTree
 
 from tasks.arrays import FloatArray, Points, check_points
 from tasks.errors import TransferError
@@ -79,17 +80,20 @@ def refine_planar(
     threshold: float,
     max_rescale: float,
     weights: FloatArray | None = None,
+    tree: cKDTree | None = None,
 ) -> Similarity:
-    """Point-to-plane similarity ICP over shrinking distances; rigid when the scale runs away from ``start``."""
+    """Point-to-plane similarity ICP over shrinking distances; rigid when the scale runs away from ``start``.
+    ``tree``: a KD-tree of ``target`` (built once per call when None)."""
+    tree = cKDTree(target) if tree is None else tree
     fitted = start
     for dist in (4.0 * threshold, 2.0 * threshold, threshold):
-        fitted = plane_similarity_icp(source, target, normals, fitted, dist, iterations=25, weights=weights)
+        fitted = plane_similarity_icp(source, target, normals, fitted, dist, iterations=25, weights=weights, tree=tree)
     if abs(math.log(fitted.scale / start.scale)) <= math.log(max_rescale):
         return fitted
     fitted = start
     for dist in (4.0 * threshold, 2.0 * threshold, threshold):
         fitted = plane_similarity_icp(
-            source, target, normals, fitted, dist, iterations=25, with_scale=False, weights=weights
+            source, target, normals, fitted, dist, iterations=25, with_scale=False, weights=weights, tree=tree
         )
     return fitted
 
@@ -132,6 +136,8 @@ class FineTarget:
     """Final correspondence threshold, metres."""
     spacing: float
     """Median nearest-neighbour spacing of the target's points, metres."""
+    tree: cKDTree
+    """KD-tree of ``points``, built once for every start's refinement."""
 
 
 def prepare_target(tgt: Points, params: RegistrationParams) -> FineTarget:
@@ -144,7 +150,9 @@ def prepare_target(tgt: Points, params: RegistrationParams) -> FineTarget:
     normals = surface_normals(tgt, spacing)
     mid_voxel = max(span_t / MID_VOXEL_DIVISOR, spacing)
     mid = downsample(tgt, mid_voxel)
-    return FineTarget(tgt, normals, tgt_fine, cloud_points(tgt_fine), mid, fine_voxel, mid_voxel, threshold, spacing)
+    return FineTarget(
+        tgt, normals, tgt_fine, cloud_points(tgt_fine), mid, fine_voxel, mid_voxel, threshold, spacing, cKDTree(tgt)
+    )
 
 
 def surface_normals(points: Points, spacing_m: float) -> Points:
@@ -332,6 +340,7 @@ def register_models(
             threshold=threshold,
             max_rescale=params.max_crop_rescale,
             weights=refine_weights,
+            tree=fine.tree,
         )
         alignments.append(
             score_fit(

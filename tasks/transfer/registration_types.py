@@ -28,8 +28,10 @@ class RegistrationParams:
     """Align the whole source model instead of its functional region."""
     fine_voxel_frac: float = 1.0 / 150.0
     """Fine voxel as a fraction of the target's bounding-box diagonal."""
-    keep: int = 10
-    """Distinct global candidates refined on the functional part."""
+    keep: int | None = None
+    """Distinct global candidates refined on the functional part, best coarse score first (None: all of them).
+    The coarse score, in normalised space where a partial scan's centroid and radius are not the whole model's,
+    does not rank a box's orientations: the fine stage, in metres and both ways, must see each of them."""
     symmetry_candidates: int = 4
     """The best this many also get their half-turns about the source's principal axes refined."""
     ransac_iterations: int = 30_000

@@ -225,3 +225,21 @@ def test_global_starts_repeat_whatever_ran_before(bottle_model: shapes.ShapeMode
         for (_, a), (_, b) in zip(run, runs[0], strict=True):
             np.testing.assert_array_equal(a, b)
     assert o3d.utility.get_max_threads() == threads
+
+
+def test_every_distinct_orientation_of_a_box_reaches_the_fine_stage() -> None:
+    """The coarse stage works in normalised space, where a partial scan's centroid and radius are not the whole
+    model's: its score does not rank a box's orientations, so it only removes duplicates and the fine stage sees
+    every one of them (a cut at the best ten can drop the true one)."""
+    rng = np.random.default_rng(31)
+    model = shapes.drawer(rng, n=4000)
+    truth = Similarity(0.94, shapes.random_rotation(rng), np.array([0.2, -0.1, 0.6]))
+    scan, _ = shapes.partial_scan(
+        truth.apply_points(model.points), model.normals @ truth.rotation.T, rng, 0.5, view=True
+    )
+    scan = scan + rng.normal(scale=1.5e-3, size=scan.shape)
+    params = RegistrationParams(ransac_iterations=20_000, ransac_runs=1)
+    starts = global_starts(model.points, scan, span_t=0.5, params=params, rng=rng, init=None)
+    own = [t for name, t in starts if "flip" not in name]
+    assert len(own) > 10  # the 24 orientations of the principal axes, less those that converge together
+    assert min(_rotation_angle_deg(t.rotation, truth.rotation) for _, t in starts) < 10.0
