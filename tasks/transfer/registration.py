@@ -45,6 +45,7 @@ from tasks.transfer.clouds import (
 from tasks.transfer.global_starts import global_starts
 from tasks.transfer.plane_icp import plane_residuals, plane_similarity_icp
 from tasks.transfer.registration_types import Alignment, Registration, RegistrationParams
+from tasks.transfer.scan_noise import scan_noise
 from tasks.transfer.scoring import (
     functional_score,
     grip_score,
@@ -68,7 +69,12 @@ PLANE_ICP_POINTS = 1500
 SURFACE_NORMAL_SPACINGS = 3.0
 SURFACE_NORMAL_NN = 12
 """Surface normals of the fine stage: the 12 nearest points within 3 median point spacings, local enough for
-thin parts (a mug's handle, a wall 4 mm thick)."""
+thin parts (a mug's handle, a wall 4 mm thick) ..."""
+NORMAL_NOISE_RADII = 3.0
+"""... and over at least 3 of the scan's noise sigmas (``scan_noise``), with the count grown as the area: there the
+disc's own spread across, r^2 / 4, is over twice the noise's along the normal; nearer, the least-variance
+direction is as much the noise's as the surface's (1.5 mm of noise, points 0.5 mm apart: a normal over 3
+spacings tilts by about 40 degrees)."""
 
 
 def refine_planar(
@@ -157,8 +163,13 @@ def prepare_target(tgt: Points, params: RegistrationParams) -> FineTarget:
 
 def surface_normals(points: Points, spacing_m: float) -> Points:
     """(n, 3) unit surface normals (unsigned) of model points whose median spacing is ``spacing_m``: the fine
-    stage's neighbourhood (``SURFACE_NORMAL_NN`` points within ``SURFACE_NORMAL_SPACINGS`` spacings)."""
-    cloud = with_normals(to_cloud(points), SURFACE_NORMAL_SPACINGS * spacing_m, max_nn=SURFACE_NORMAL_NN)
+    stage's neighbourhood (``SURFACE_NORMAL_NN`` points within ``SURFACE_NORMAL_SPACINGS`` spacings, or the
+    points within ``NORMAL_NOISE_RADII`` noise sigmas, as many more as the area, on a scan whose noise is large
+    against its spacing)."""
+    least = SURFACE_NORMAL_SPACINGS * spacing_m
+    radius = max(least, NORMAL_NOISE_RADII * scan_noise(points, spacing_m))
+    count = math.ceil(SURFACE_NORMAL_NN * (radius / least) ** 2 - 1e-9)
+    cloud = with_normals(to_cloud(points), radius, max_nn=count)
     out: Points = np.asarray(cloud.normals, dtype=np.float64)
     return out
 
