@@ -49,7 +49,9 @@ def median_spacing(points: Points) -> float:
 
 
 def check_model(points: object, name: str) -> Points:
-    """Validate a model cloud: (n, 3), finite rows kept, at least ``MIN_POINTS`` distinct points."""
+    """Validate a model cloud: (n, 3), finite rows kept, at least ``MIN_POINTS`` distinct points; a point listed
+    again (a mesh's vertex repeated for each face it bounds) is kept once, in its first place: a cloud whose
+    points come in pairs would have a median spacing of 0, and its surface normals no neighbourhood."""
     try:
         pts = check_points(points, name)
     except ValueError as err:
@@ -62,6 +64,12 @@ def check_model(points: object, name: str) -> Points:
     if not extent > 0.0:
         msg = f"{name}: all points coincide"
         raise TransferError(msg)
+    _, first = np.unique(pts, axis=0, return_index=True)
+    if len(first) < pts.shape[0]:
+        pts = pts[np.sort(first)]
+        if pts.shape[0] < MIN_POINTS:
+            msg = f"{name}: {pts.shape[0]} distinct points, need at least {MIN_POINTS}"
+            raise TransferError(msg)
     return pts
 
 

@@ -243,3 +243,13 @@ def test_every_distinct_orientation_of_a_box_reaches_the_fine_stage() -> None:
     own = [t for name, t in starts if "flip" not in name]
     assert len(own) > 10  # the 24 orientations of the principal axes, less those that converge together
     assert min(_rotation_angle_deg(t.rotation, truth.rotation) for _, t in starts) < 10.0
+
+
+def test_a_model_listing_each_point_twice_is_the_model_listed_once(bottle_model: shapes.ShapeModel) -> None:
+    """A mesh exported with each vertex repeated per face: its repeated points are kept once, in their first
+    places (the median spacing of a cloud of pairs is 0, and its normals would have no neighbourhood)."""
+    twice = np.repeat(bottle_model.points, 2, axis=0)
+    np.testing.assert_array_equal(check_model(twice, "target model"), bottle_model.points)
+    few = np.repeat(bottle_model.points[:20], 3, axis=0)
+    with pytest.raises(TransferError, match="target model: 20 distinct points, need at least 30"):
+        check_model(few, "target model")
