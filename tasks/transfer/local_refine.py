@@ -183,9 +183,11 @@ def check_axis(
     lateral = float(np.linalg.eigvalsh(across.T @ across / region.shape[0])[1])  # [0] is along the axis: 0
     region = region[:: -(-region.shape[0] // params.max_points)]  # an even thinning, no randomness
     fitted = best
-    for dist in (4.0 * threshold, 2.0 * threshold, threshold):
-        fitted = plane_similarity_icp(region, target, target_normals, fitted, dist, iterations=25, with_scale=False)
     target_tree = cKDTree(target)
+    for dist in (4.0 * threshold, 2.0 * threshold, threshold):
+        fitted = plane_similarity_icp(
+            region, target, target_normals, fitted, dist, iterations=25, with_scale=False, tree=target_tree
+        )
     fit_global = _fraction_near(best.apply_points(region), target_tree, threshold)
     fit_local = _fraction_near(fitted.apply_points(region), target_tree, threshold)
     about = target[axis_region(target, best.apply_point(pos), best.apply_direction(direction), radius * best.scale)]
