@@ -31,7 +31,7 @@ from scipy.special import ndtr
 
 from tasks.arrays import FloatArray, Points, Vector3
 from tasks.fit.noise import MAD_TO_SIGMA
-from tasks.transfer.face_normals import FLAT_DEG, ModelNormals
+from tasks.transfer.face_normals import ModelNormals
 from tasks.transfer.stretch import MAX_STRETCH, Stretched, carried_normals
 
 MAX_GAP_M = 0.010
@@ -205,7 +205,7 @@ def model_edges(
     rel = source - pos
     along = rel @ direction
     lateral = rel - np.outer(along, direction)
-    flat = (np.abs(normals @ model.directions.T) >= math.cos(math.radians(FLAT_DEG))).any(axis=1)
+    flat = (np.abs(normals @ model.directions.T) >= math.cos(math.radians(model.flat_deg))).any(axis=1)
     near = (np.einsum("ij,ij->i", lateral, lateral) <= radius_m**2) & (model.plane_weight > 0.0) & flat
     near &= np.abs(normals @ direction) <= math.sin(math.radians(MAX_AXIS_DEG))
     face_cos = math.cos(math.radians(FACE_DEG))

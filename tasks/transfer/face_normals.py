@@ -8,7 +8,8 @@ Either tilt, paired with a scan of that face, reads as information along the fac
 
 - the model's **face directions** are the directions that many of its normals share tightly (a flat face, or
   parallel faces), not a curved surface passing through them (``face_directions``);
-- a normal within ``FLAT_DEG`` of a face direction is that direction exactly (``model_normals``);
+- a normal within ``FLAT_DEG`` of a face direction (or a few of the normals' own scatter, where more) is that
+  direction exactly (``model_normals``);
 - a normal tilted from a face direction by more than that but within ``BORDER_DEG`` lies on a border (or is a
   face's normal the smoothing could not settle): its plane is no face's, and its pair gives no point-to-plane
   information (weight 0);
@@ -35,7 +36,15 @@ from tasks.arrays import FloatArray, Points
 
 FLAT_DEG = 3.0
 """A smoothed normal within 3 degrees of a face direction lies on that flat face (a face's smoothed normals
-scatter by 1-2 degrees with a careful scan's noise; a border's tilt starts at several)."""
+scatter by 1-2 degrees with a careful scan's noise; a border's tilt starts at several) ..."""
+FLAT_SCATTERS = 2.5
+"""... or within 2.5 of the normals' own scatter on the model's tightest face where that is more (``normal_scatter``):
+a normal's tilt grows with the noise over the spacing (0.5 mm of noise every 1.5 mm scatters a face's smoothed
+normals by about 1.8 degrees, every 5 mm by 0.7), and 2.5 scatters hold 96 % of a face's normals (tilts about a
+direction, two-dimensional normal)."""
+SCATTER_CONE_DEG = 10.0
+"""The scatter is first measured over the normals within 10 degrees of a candidate direction, then over four of
+that scatter where wider (a face whose normals scatter widely is not cut off)."""
 BORDER_DEG = 30.0
 """A normal tilted 3-30 degrees from a face direction is a border's, or a face normal the smoothing could not settle
 (a strip a few point spacings wide): within 30 degrees it pairs with a scan of that face (``stretch.NORMAL_COS``),
@@ -70,12 +79,47 @@ class ModelNormals:
     """(n,) 1 where the normal states the surface's plane, 0 on borders between faces."""
     directions: FloatArray
     """(k, 3) unit face directions found (unsigned)."""
+    flat_deg: float = FLAT_DEG
+    """Normals within this of a face direction lie on the face (``flat_degrees``), degrees."""
 
 
-def face_directions(normals: Points) -> FloatArray:
+def normal_scatter(normals: Points) -> float:
+    """The scatter (degrees; the Rayleigh scale of their tilts) of ``normals`` ((n, 3) unit, unsigned) about the
+    tightest direction that at least ``FACE_SHARE`` of them share within ``SCATTER_CONE_DEG``; nan when none does."""
+    candidates = normals[:: max(1, len(normals) // CANDIDATES)]
+    cone = math.cos(math.radians(SCATTER_CONE_DEG))
+    cos = np.abs(normals @ candidates.T)  # (n, c)
+    counts = (cos >= cone).sum(axis=0)
+    least = math.inf
+    seen: list[FloatArray] = []
+    for c in np.argsort(-counts, kind="stable"):
+        if counts[c] < max(FACE_SHARE * len(normals), 12):
+            break
+        if any(abs(float(candidates[c] @ d)) >= cone for d in seen):
+            continue  # a direction already measured
+        members = normals[cos[:, c] >= cone]
+        for _ in range(2):  # the direction from the members, then the members within four scatters of it
+            _, vecs = np.linalg.eigh(members.T @ members)
+            tilt = np.degrees(np.arccos(np.clip(np.abs(members @ vecs[:, -1]), 0.0, 1.0)))
+            scatter = float(np.median(tilt)) / math.sqrt(2.0 * math.log(2.0))
+            wider = math.cos(math.radians(min(max(SCATTER_CONE_DEG, 4.0 * scatter), BORDER_DEG)))
+            members = normals[np.abs(normals @ vecs[:, -1]) >= wider]
+        seen.append(vecs[:, -1])
+        least = min(least, scatter)
+    return least if math.isfinite(least) else float("nan")
+
+
+def flat_degrees(normals: Points) -> float:
+    """How far (degrees) a normal of ``normals`` may tilt from a face direction and lie on that face:
+    ``FLAT_DEG``, or ``FLAT_SCATTERS`` of the normals' own scatter where more."""
+    scatter = normal_scatter(normals)
+    return max(FLAT_DEG, FLAT_SCATTERS * scatter) if math.isfinite(scatter) else FLAT_DEG
+
+
+def face_directions(normals: Points, flat_deg: float = FLAT_DEG) -> FloatArray:
     """(k, 3) unit directions that at least ``FACE_SHARE`` of ``normals`` ((n, 3) unit, unsigned) lie within
-    ``FLAT_DEG`` of, with ``FACE_CONTRAST`` times fewer in the ring out to twice that; most populous first."""
-    flat, ring = math.cos(math.radians(FLAT_DEG)), math.cos(math.radians(2.0 * FLAT_DEG))
+    ``flat_deg`` of, with ``FACE_CONTRAST`` times fewer in the ring out to twice that; most populous first."""
+    flat, ring = math.cos(math.radians(flat_deg)), math.cos(math.radians(2.0 * flat_deg))
     border = math.cos(math.radians(BORDER_DEG))
     remaining = np.ones(len(normals), dtype=bool)
     candidates = normals[:: max(1, len(normals) // CANDIDATES)]
@@ -98,22 +142,23 @@ def face_directions(normals: Points) -> FloatArray:
 
 def model_normals(normals: Points) -> ModelNormals:
     """A model's normals for point-to-plane pairs from its smoothed ``normals`` ((n, 3) unit, unsigned): snapped
-    onto the face directions within ``FLAT_DEG``, weight 0 where tilted from one by ``FLAT_DEG``-``BORDER_DEG``
+    onto the face directions within ``flat_degrees``, weight 0 where tilted from one by that to ``BORDER_DEG``
     (module docstring)."""
     normals = np.asarray(normals, dtype=np.float64)
-    directions = face_directions(normals)
+    flat_deg = flat_degrees(normals)
+    directions = face_directions(normals, flat_deg)
     weight = np.ones(len(normals))
     if not len(directions):
-        return ModelNormals(normals, weight, directions)
+        return ModelNormals(normals, weight, directions, flat_deg)
     cos = normals @ directions.T  # (n, k)
     k = np.abs(cos).argmax(axis=1)
     best = cos[np.arange(len(cos)), k]
-    snapped = np.abs(best) >= math.cos(math.radians(FLAT_DEG))
+    snapped = np.abs(best) >= math.cos(math.radians(flat_deg))
     tilted = ~snapped & (np.abs(best) >= math.cos(math.radians(BORDER_DEG)))
     out = normals.copy()
     out[snapped] = directions[k[snapped]] * np.sign(best[snapped])[:, None]
     weight[tilted] = 0.0
-    return ModelNormals(out, weight, directions)
+    return ModelNormals(out, weight, directions, flat_deg)
 
 
 def plane_scatter(
