@@ -12,17 +12,18 @@ from flows.transfer_descriptor import transfer_descriptor_flow
 from schemas.descriptor import Descriptor, ObjectRef, Primitive
 from tasks.store import Store
 from tasks.synth.record import synthesize
+from tests.transfer import shapes
 
 HINGE = np.array([0.5, 0.0, 1.0])
 
 
 def _door_model(rng: np.random.Generator) -> np.ndarray:
-    """A door leaf with a handle (metres, world frame): asymmetric enough to register uniquely."""
-    leaf = np.column_stack([rng.uniform(0, 0.6, 3000), rng.uniform(-0.01, 0.01, 3000), rng.uniform(-0.4, 0.4, 3000)])
-    handle = np.column_stack(
-        [rng.uniform(0.5, 0.55, 400), rng.uniform(-0.08, -0.01, 400), rng.uniform(-0.05, 0.05, 400)]
-    )
-    return np.vstack([leaf, handle]) + HINGE
+    """A door leaf's surface with a handle block's (metres, world frame, 0.5 mm of noise): asymmetric enough to
+    register uniquely."""
+    parts = shapes.box(np.array([0.6, 0.02, 0.8]), np.array([0.3, 0.0, 0.0]))
+    parts += shapes.box(np.array([0.05, 0.07, 0.1]), np.array([0.525, -0.045, 0.0]))
+    points, _ = shapes.sample_parts(parts, 6000, rng)
+    return points + rng.normal(scale=5e-4, size=points.shape) + HINGE
 
 
 def test_transfer_carries_the_axis_and_records_the_parent(prefect_harness: None, tmp_path: Path) -> None:
