@@ -83,6 +83,21 @@ class ModelNormals:
     """Normals within this of a face direction lie on the face (``flat_degrees``), degrees."""
 
 
+def _principal(normals: Points) -> FloatArray:
+    """The unit direction (either sign) that unsigned ``normals`` (m, 3) lie closest to: their scatter's main axis."""
+    _, vecs = np.linalg.eigh(normals.T @ normals)
+    out: FloatArray = vecs[:, -1]
+    return out
+
+
+def _spread(members: Points) -> tuple[FloatArray, float]:
+    """The direction ``members`` (m, 3, unit, unsigned) share and their scatter about it: the Rayleigh scale of
+    their tilts from it, from the tilts' median (degrees)."""
+    direction = _principal(members)
+    tilt = np.degrees(np.arccos(np.clip(np.abs(members @ direction), 0.0, 1.0)))
+    return direction, float(np.median(tilt)) / math.sqrt(2.0 * math.log(2.0))
+
+
 def normal_scatter(normals: Points) -> float:
     """The scatter (degrees; the Rayleigh scale of their tilts) of ``normals`` ((n, 3) unit, unsigned) about the
     tightest direction that at least ``FACE_SHARE`` of them share within ``SCATTER_CONE_DEG``; nan when none does."""
@@ -97,14 +112,10 @@ def normal_scatter(normals: Points) -> float:
             break
         if any(abs(float(candidates[c] @ d)) >= cone for d in seen):
             continue  # a direction already measured
-        members = normals[cos[:, c] >= cone]
-        for _ in range(2):  # the direction from the members, then the members within four scatters of it
-            _, vecs = np.linalg.eigh(members.T @ members)
-            tilt = np.degrees(np.arccos(np.clip(np.abs(members @ vecs[:, -1]), 0.0, 1.0)))
-            scatter = float(np.median(tilt)) / math.sqrt(2.0 * math.log(2.0))
-            wider = math.cos(math.radians(min(max(SCATTER_CONE_DEG, 4.0 * scatter), BORDER_DEG)))
-            members = normals[np.abs(normals @ vecs[:, -1]) >= wider]
-        seen.append(vecs[:, -1])
+        direction, scatter = _spread(normals[cos[:, c] >= cone])
+        wider = math.cos(math.radians(min(max(SCATTER_CONE_DEG, 4.0 * scatter), BORDER_DEG)))
+        direction, scatter = _spread(normals[np.abs(normals @ direction) >= wider])
+        seen.append(direction)
         least = min(least, scatter)
     return least if math.isfinite(least) else float("nan")
 
@@ -132,9 +143,7 @@ def face_directions(normals: Points, flat_deg: float = FLAT_DEG) -> FloatArray:
         if not ok.any():
             break
         best = candidates[int(np.where(ok, inside, -1).argmax())]
-        members = normals[remaining][np.abs(normals[remaining] @ best) >= flat]
-        _, vecs = np.linalg.eigh(members.T @ members)
-        direction = vecs[:, -1]
+        direction = _principal(normals[remaining][np.abs(normals[remaining] @ best) >= flat])
         found.append(direction)
         remaining &= np.abs(normals @ direction) < border
     return np.array(found, dtype=np.float64).reshape(-1, 3)
