@@ -56,6 +56,8 @@ FACE_CONTRAST = 4.0
 curved surface's spread evenly through the direction."""
 CANDIDATES = 256
 """Model normals tried as face directions (every n/256-th)."""
+CHUNK_ROWS = 8192
+"""Normals compared with the candidates at a time (an (8192, 256) cosine block, 16 MB, whatever the model's size)."""
 SCATTER_SPACINGS = 2.0
 """A pair's plane is checked over at least two model point spacings about its model point (a few neighbours each
 way, enough to see the surface bend; less than a door's or leaf's thickness, so a parallel face behind stays out)."""
@@ -98,13 +100,23 @@ def _spread(members: Points) -> tuple[FloatArray, float]:
     return direction, float(np.median(tilt)) / math.sqrt(2.0 * math.log(2.0))
 
 
+def _within(normals: Points, candidates: Points, cosines: tuple[float, ...]) -> np.ndarray:
+    """(len(cosines), c) counts of ``normals`` ((n, 3) unit, unsigned) at least each of ``cosines`` from each of
+    ``candidates`` ((c, 3) unit), counted ``CHUNK_ROWS`` normals at a time so memory stays bounded."""
+    out = np.zeros((len(cosines), len(candidates)), dtype=np.int64)
+    for start in range(0, len(normals), CHUNK_ROWS):
+        cos = np.abs(normals[start : start + CHUNK_ROWS] @ candidates.T)
+        for i, limit in enumerate(cosines):
+            out[i] += (cos >= limit).sum(axis=0)
+    return out
+
+
 def normal_scatter(normals: Points) -> float:
     """The scatter (degrees; the Rayleigh scale of their tilts) of ``normals`` ((n, 3) unit, unsigned) about the
     tightest direction that at least ``FACE_SHARE`` of them share within ``SCATTER_CONE_DEG``; nan when none does."""
     candidates = normals[:: max(1, len(normals) // CANDIDATES)]
     cone = math.cos(math.radians(SCATTER_CONE_DEG))
-    cos = np.abs(normals @ candidates.T)  # (n, c)
-    counts = (cos >= cone).sum(axis=0)
+    counts = _within(normals, candidates, (cone,))[0]
     least = math.inf
     seen: list[FloatArray] = []
     for c in np.argsort(-counts, kind="stable"):
@@ -112,7 +124,7 @@ def normal_scatter(normals: Points) -> float:
             break
         if any(abs(float(candidates[c] @ d)) >= cone for d in seen):
             continue  # a direction already measured
-        direction, scatter = _spread(normals[cos[:, c] >= cone])
+        direction, scatter = _spread(normals[np.abs(normals @ candidates[c]) >= cone])
         wider = math.cos(math.radians(min(max(SCATTER_CONE_DEG, 4.0 * scatter), BORDER_DEG)))
         direction, scatter = _spread(normals[np.abs(normals @ direction) >= wider])
         seen.append(direction)
@@ -136,9 +148,8 @@ def face_directions(normals: Points, flat_deg: float = FLAT_DEG) -> FloatArray:
     candidates = normals[:: max(1, len(normals) // CANDIDATES)]
     found: list[FloatArray] = []
     while remaining.any():
-        cos = np.abs(normals[remaining] @ candidates.T)  # (r, c)
-        inside = (cos >= flat).sum(axis=0)
-        around = ((cos >= ring) & (cos < flat)).sum(axis=0)
+        inside, within_ring = _within(normals[remaining], candidates, (flat, ring))
+        around = within_ring - inside
         ok = (inside >= max(FACE_SHARE * len(normals), 12)) & (inside >= FACE_CONTRAST * around)
         if not ok.any():
             break
