@@ -234,6 +234,7 @@ def transfer_descriptor(
                 "neighbourhood_shift_mm": fit.whole_shift_m * 1e3,
                 "neighbourhood_turn_deg": math.degrees(fit.whole_turn_rad),
                 "neighbourhood_pos_std_m": _finite(fit.fit_pos_std_m),
+                "face_misfit_m": _finite(fit.spread.misfit_std_m),
                 "registration_pos_std_m": _finite(unc.registration_pos_std_m),
                 "registration_pos_worst_m": _finite(unc.registration_pos_worst_m),
                 "edges": [

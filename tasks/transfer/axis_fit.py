@@ -7,11 +7,12 @@ only when its normals pin the axis across itself (their scatter across the axis 
 ``MIN_LATERAL``: two faces meeting at a hinge, a lever's sides), and when its fit pairs enough points; else the
 whole model's fit places the axis. Each placement comes with its spread (``stretch.line_spread``, from the
 model's plane normals: ``face_normals``), widened to cover how far the neighbourhood moved the axis from the whole
-model's placement when the two fits contradict each other (``AGREEMENT_SIGMAS``). The neighbourhood's fit starts
-from the whole model's, so before its own pairs it knows the axis as well as the whole model placed it (its
-translation prior is the whole model's sigma there). Last, the edges of the model's flat faces that a rotation's
-axis runs along (a door's front face at its hinge) are located in the scan and update the placement and its
-covariance (``with_edges``, ``face_edge``). Lengths in metres.
+model's placement when the two fits contradict each other (``AGREEMENT_SIGMAS``), and by the misfit of faces whose
+pairs lie off to one side on average, which the pairs' scatter does not show (``face_misfit``). The
+neighbourhood's fit starts from the whole model's, so before its own pairs it knows the axis as well as the whole
+model placed it (its translation prior is the whole model's sigma there). Last, the edges of the model's flat
+faces that a rotation's axis runs along (a door's front face at its hinge) are located in the scan and update the
+placement and its covariance (``with_edges``, ``face_edge``). Lengths in metres.
 """
 
 from __future__ import annotations
@@ -142,14 +143,14 @@ def fit_axis(
         model=(source, model.normals),
     )
     if prim.kind != "rotation" or prim.pos is None:
-        return AxisFit(whole, global_spread, local=False)
+        return AxisFit(whole, with_bias(global_spread), local=False)
     mask = axis_region(source, pos, direction, radius_m)
     for g in grip:
         if point_line_distance(g, pos, direction) <= radius_m:
             mask |= ((source - g) ** 2).sum(axis=1) <= radius_m**2
     informs = mask & (model.plane_weight > 0.0)
     if int(mask.sum()) < MIN_REGION_PAIRS or lateral_pinning(model.normals[informs], direction) < MIN_LATERAL:
-        return AxisFit(whole, global_spread, local=False)
+        return AxisFit(whole, with_bias(global_spread), local=False)
     region, normals, weight = source[mask], model.normals[mask], model.plane_weight[mask]
     distances = [2.0 * threshold_m, threshold_m]
     fine = threshold_m
@@ -200,7 +201,7 @@ def fit_axis(
         start_pos_std_m=max(threshold_m, global_spread.pos_std_m) if math.isfinite(global_spread.pos_std_m) else None,
     )
     if spread.pairs < MIN_REGION_PAIRS:
-        return AxisFit(whole, global_spread, local=False)
+        return AxisFit(whole, with_bias(global_spread), local=False)
     whole_pos, whole_dir = whole.carry_line(pos, direction)
     local_pos, local_dir = fitted.carry_line(pos, direction)
     shift = point_line_distance(local_pos, whole_pos, whole_dir)
@@ -210,6 +211,7 @@ def fit_axis(
         spread = replace(spread, pos_std_m=search.spread_m / AGREEMENT_SIGMAS)
     if shift > AGREEMENT_SIGMAS * math.hypot(spread.pos_std_m, global_spread.pos_std_m):
         spread = replace(spread, pos_std_m=max(spread.pos_std_m, shift / AGREEMENT_SIGMAS))
+    spread = with_bias(spread)
     if global_spread.dir_std_rad < spread.dir_std_rad:  # the whole model turns the axis more surely (a door's leaf)
         spread = replace(spread, dir_std_rad=global_spread.dir_std_rad)
         return AxisFit(
@@ -219,6 +221,15 @@ def fit_axis(
     if turn > AGREEMENT_SIGMAS * math.hypot(spread.dir_std_rad, global_spread.dir_std_rad):
         spread = replace(spread, dir_std_rad=max(spread.dir_std_rad, turn / AGREEMENT_SIGMAS))
     return AxisFit(fitted, spread, local=True, whole_shift_m=shift, whole_turn_rad=turn, fit_pos_std_m=own)
+
+
+def with_bias(spread: FitSpread) -> FitSpread:
+    """``spread`` with its faces' systematic misfit (``FitSpread.bias_cov``) added to its position covariance."""
+    cov = spread.scaled_cov()
+    if cov is None or spread.bias_cov is None or not spread.bias_cov.any():
+        return spread
+    cov = cov + spread.bias_cov
+    return replace(spread, pos_std_m=across_std(cov), pos_cov=cov)
 
 
 def axis_edges(prim: Primitive, source: Points, model: ModelNormals, radius_m: float) -> list[ModelEdge]:

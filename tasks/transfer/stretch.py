@@ -27,6 +27,7 @@ import open3d as o3d
 from scipy.spatial import cKDTree
 
 from tasks.arrays import FloatArray, Points, Vector3
+from tasks.transfer.face_misfit import bias_cov
 from tasks.transfer.face_normals import plane_holds
 from tasks.transfer.pairing import nearest_compatible
 from tasks.transfer.similarity import Similarity, rotation_onto
@@ -333,6 +334,9 @@ class FitSpread:
     pos_cov: FloatArray | None = None
     """(3, 3) covariance of the carried axis point across the axis, metres squared (its trace over 2 is
     ``pos_std_m`` squared, before any widening); None when no pair informs."""
+    bias_cov: FloatArray | None = None
+    """(3, 3) covariance across the axis of the placement's systematic error from faces whose pairs lie off to
+    one side (``face_misfit``), metres squared; not in ``pos_cov``."""
 
     def scaled_cov(self) -> FloatArray | None:
         """``pos_cov`` scaled to the (possibly widened) ``pos_std_m``; None without one."""
@@ -341,6 +345,11 @@ class FitSpread:
         own = max(across_std(self.pos_cov), 1e-15)
         out: FloatArray = self.pos_cov * (self.pos_std_m / own) ** 2
         return out
+
+    @property
+    def misfit_std_m(self) -> float:
+        """The faces' systematic misfit (``bias_cov``) in its worst direction across the axis, metres (0: none)."""
+        return 0.0 if self.bias_cov is None else worst_std(self.bias_cov)
 
     @property
     def worst_pos_std_m(self) -> float:
@@ -445,12 +454,22 @@ def line_spread(
     across = np.eye(3) - np.outer(moved_dir, moved_dir)
     cov_pos = across @ jac @ cov @ jac.T @ across
     turn = jac_dir @ cov @ jac_dir.T
+    bias = bias_cov(
+        source[ok],
+        source_normals[ok],
+        n,
+        np.einsum("ij,ij->i", n, q - p),
+        direction=moved_dir,
+        rms_m=rms,
+        correlated=CORRELATED_POINTS,
+    )
     return FitSpread(
         across_std(cov_pos),
         float(np.sqrt(max(np.trace(turn), 0.0) / 2.0)),
         rms,
         int(ok.sum()),
         cov_pos,
+        bias,
     )
 
 
