@@ -30,6 +30,7 @@ from tasks.transfer.stretched_judgement import stretched_alignment
 from tasks.transfer.uncertainty import (
     MAX_AXIS_DIR_STD_RAD,
     MAX_AXIS_POS_STD_M,
+    AxisUncertainty,
     axis_uncertainty,
     candidate_axes,
     with_uncertainty,
@@ -71,6 +72,19 @@ class TransferResult:
 def plausible_alternatives(reg: Registration) -> list[Similarity]:
     """The runner-up alignments scoring within ``SPREAD_SCORE_GAP`` of the best (at most ``SPREAD_COUNT`` - 1)."""
     return [a.transform for a in reg.alignments[1:SPREAD_COUNT] if a.score >= reg.best.score - SPREAD_SCORE_GAP]
+
+
+def _uncertain_reason(i: int, unc: AxisUncertainty, misfit_m: float) -> str:
+    """The refusal line of axis ``i`` placed too loosely; naming its faces' misfit (metres) where that is most of
+    the position's variance."""
+    out = (
+        f"uncertain registration: axis {i} is placed within {unc.registration_pos_worst_m * 1e3:.1f} mm and "
+        f"{math.degrees(unc.registration_dir_std_rad):.2f} deg (one sigma; want <= "
+        f"{MAX_AXIS_POS_STD_M * 1e3:g} mm and {math.degrees(MAX_AXIS_DIR_STD_RAD):g} deg)"
+    )
+    if misfit_m**2 >= 0.5 * unc.registration_pos_worst_m**2:
+        out += f", its faces {misfit_m * 1e3:.1f} mm off the scan on average (the model's shape differs there)"
+    return out
 
 
 def _finite(value: float) -> float | None:
@@ -165,13 +179,9 @@ def transfer_descriptor(
         axis_uncertainty(prim, fit, t.scale, symmetry)
         for prim, fit, t, symmetry in zip(desc.chain, fits.axes, placed.transforms, placed.symmetry, strict=True)
     )
-    for i, unc in enumerate(uncertainty):
+    for i, (unc, fit, symmetry) in enumerate(zip(uncertainty, fits.axes, placed.symmetry, strict=True)):
         if unc.registration_pos_worst_m > MAX_AXIS_POS_STD_M or unc.registration_dir_std_rad > MAX_AXIS_DIR_STD_RAD:
-            reasons.append(
-                f"uncertain registration: axis {i} is placed within {unc.registration_pos_worst_m * 1e3:.1f} mm and "
-                f"{math.degrees(unc.registration_dir_std_rad):.2f} deg (one sigma; want <= "
-                f"{MAX_AXIS_POS_STD_M * 1e3:g} mm and {math.degrees(MAX_AXIS_DIR_STD_RAD):g} deg)"
-            )
+            reasons.append(_uncertain_reason(i, unc, fit.spread.misfit_std_m if symmetry is None else 0.0))
     stretched_scores: dict[str, float | None] | None = None
     if reg.poor:
         judged = stretched_alignment(

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from schemas.descriptor import Primitive
+from tasks.transfer.axis_fit import fit_axes
 from tasks.transfer.clouds import median_spacing
 from tasks.transfer.face_misfit import bias_cov
 from tasks.transfer.face_normals import model_normals
@@ -65,3 +67,40 @@ def test_noise_alone_and_faces_along_the_axis_are_no_misfit() -> None:
     out = bias_cov(source, normals, normals, residual, direction=direction, rms_m=1e-3, correlated=CORRELATED_POINTS)
     assert 0.8e-3 < np.sqrt(out[1, 1]) < 1.0e-3
     assert np.abs(out[[0, 2]]).max() == 0.0
+
+
+BODY = np.array([0.5, 0.35, 0.4])
+"""A microwave-like body (metres) whose front (-y) holds a door 22 mm thick on its left, hinged at the left edge."""
+
+
+def _hinged_box(door_t: float, rng: np.random.Generator, faces: tuple[int, ...] | None = None) -> np.ndarray:
+    """30 000 points of the body and its door (``faces``: the indices into ``shapes.box`` kept of each)."""
+    body = shapes.box(BODY, np.array([0.0, 0.0, 0.2]))
+    door = shapes.box(np.array([0.35, door_t, 0.39]), np.array([-0.075, -0.175 - door_t / 2, 0.2]))
+    if faces is not None:
+        body, door = [body[k] for k in faces], [door[k] for k in faces]
+    points, _ = shapes.sample_parts(body + door, 30_000, rng)
+    return points
+
+
+def test_a_door_thicker_than_its_model_widens_the_hinges_sigma() -> None:
+    hinge = np.array([-0.25, -0.197, 0.2])
+    prim = Primitive("rotation", (float(hinge[0]), float(hinge[1]), float(hinge[2])), (0.0, 0.0, -1.0), 1.0)
+    out, off = {}, {}
+    for extra in (0.0, 0.006):  # the scanned door as thick as the model's, and 6 mm thicker
+        rng = np.random.default_rng(0)
+        model = _hinged_box(0.022, rng) + rng.normal(scale=5e-4, size=(30_000, 3))
+        scan = _hinged_box(0.022 + extra, rng, faces=(0, 2, 5)) + rng.normal(scale=1e-3, size=(30_000, 3))
+        fits = fit_axes(
+            (prim,), model, scan, best=Similarity.identity(), grip=np.zeros((0, 3)), threshold_m=0.01,
+            spacing_m=median_spacing(scan), rng=rng,
+        )  # fmt: skip
+        out[extra] = fits.axes[0].spread
+        off[extra] = float(np.linalg.norm((fits.starts[0].apply_point(hinge) - hinge + [0.0, extra, 0.0])[:2]))
+    assert out[0.0].misfit_std_m == 0.0
+    # a body stretched in depth cannot thicken its door alone: the door's front and the body's faces lie off
+    assert 0.3e-3 < out[0.006].misfit_std_m < 3e-3
+    # the misfit widens the sigma (the pairs' own scatter about 1.2 times), and the door's edges, trusted more
+    # against it, place the hinge closer (1.16 mm off without it)
+    assert out[0.006].worst_pos_std_m > 1.4 * out[0.0].worst_pos_std_m
+    assert off[0.006] < 1e-3
