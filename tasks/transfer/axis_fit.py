@@ -224,7 +224,8 @@ def fit_axis(
 
 
 def with_bias(spread: FitSpread) -> FitSpread:
-    """``spread`` with its faces' systematic misfit (``FitSpread.bias_cov``) added to its position covariance."""
+    """``spread`` with its faces' systematic misfit (``FitSpread.bias_cov``) added to its position covariance
+    (once: the placement's final spread, before the faces' edges update it)."""
     cov = spread.scaled_cov()
     if cov is None or spread.bias_cov is None or not spread.bias_cov.any():
         return spread

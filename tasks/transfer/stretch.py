@@ -336,7 +336,7 @@ class FitSpread:
     ``pos_std_m`` squared, before any widening); None when no pair informs."""
     bias_cov: FloatArray | None = None
     """(3, 3) covariance across the axis of the placement's systematic error from faces whose pairs lie off to
-    one side (``face_misfit``), metres squared; not in ``pos_cov``."""
+    one side (``face_misfit``), metres squared; in ``pos_cov`` only once ``axis_fit.with_bias`` added it."""
 
     def scaled_cov(self) -> FloatArray | None:
         """``pos_cov`` scaled to the (possibly widened) ``pos_std_m``; None without one."""
