@@ -62,13 +62,12 @@ def bias_cov(
         return out
     across = np.eye(3) - np.outer(direction, direction)
     keys, sign = _canonical(np.asarray(source_normals, dtype=np.float64))
-    faces, members = np.unique(np.round(keys, 9), axis=0, return_inverse=True)
+    faces, members, counts = np.unique(np.round(keys, 9), axis=0, return_inverse=True, return_counts=True)
+    members = members.ravel()
     least = MIN_INDEPENDENT * correlated
     cone = math.cos(math.radians(AXIS_CONE_DEG))
-    for f in range(len(faces)):
-        face = np.flatnonzero(members.ravel() == f)
-        if len(face) < least:
-            continue
+    for f in np.flatnonzero(counts >= least):  # a curved surface's own normals are each a "face" of one
+        face = np.flatnonzero(members == f)
         normal = (carried_normals[face] * sign[face, None]).mean(axis=0)
         normal /= np.linalg.norm(normal)
         if abs(float(normal @ direction)) > cone:
