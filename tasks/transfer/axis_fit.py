@@ -143,14 +143,14 @@ def fit_axis(
         model=(source, model.normals),
     )
     if prim.kind != "rotation" or prim.pos is None:
-        return AxisFit(whole, with_bias(global_spread), local=False)
+        return AxisFit(whole, global_spread, local=False)
     mask = axis_region(source, pos, direction, radius_m)
     for g in grip:
         if point_line_distance(g, pos, direction) <= radius_m:
             mask |= ((source - g) ** 2).sum(axis=1) <= radius_m**2
     informs = mask & (model.plane_weight > 0.0)
     if int(mask.sum()) < MIN_REGION_PAIRS or lateral_pinning(model.normals[informs], direction) < MIN_LATERAL:
-        return AxisFit(whole, with_bias(global_spread), local=False)
+        return AxisFit(whole, global_spread, local=False)
     region, normals, weight = source[mask], model.normals[mask], model.plane_weight[mask]
     distances = [2.0 * threshold_m, threshold_m]
     fine = threshold_m
@@ -201,7 +201,7 @@ def fit_axis(
         start_pos_std_m=max(threshold_m, global_spread.pos_std_m) if math.isfinite(global_spread.pos_std_m) else None,
     )
     if spread.pairs < MIN_REGION_PAIRS:
-        return AxisFit(whole, with_bias(global_spread), local=False)
+        return AxisFit(whole, global_spread, local=False)
     whole_pos, whole_dir = whole.carry_line(pos, direction)
     local_pos, local_dir = fitted.carry_line(pos, direction)
     shift = point_line_distance(local_pos, whole_pos, whole_dir)
@@ -211,7 +211,6 @@ def fit_axis(
         spread = replace(spread, pos_std_m=search.spread_m / AGREEMENT_SIGMAS)
     if shift > AGREEMENT_SIGMAS * math.hypot(spread.pos_std_m, global_spread.pos_std_m):
         spread = replace(spread, pos_std_m=max(spread.pos_std_m, shift / AGREEMENT_SIGMAS))
-    spread = with_bias(spread)
     if global_spread.dir_std_rad < spread.dir_std_rad:  # the whole model turns the axis more surely (a door's leaf)
         spread = replace(spread, dir_std_rad=global_spread.dir_std_rad)
         return AxisFit(
@@ -223,14 +222,15 @@ def fit_axis(
     return AxisFit(fitted, spread, local=True, whole_shift_m=shift, whole_turn_rad=turn, fit_pos_std_m=own)
 
 
-def with_bias(spread: FitSpread) -> FitSpread:
-    """``spread`` with its faces' systematic misfit (``FitSpread.bias_cov``) added to its position covariance
-    (once: the placement's final spread, before the faces' edges update it)."""
+def with_bias(axis: AxisFit) -> AxisFit:
+    """``axis`` with its placing fit's faces' systematic misfit (``FitSpread.bias_cov``) added to its position
+    covariance (once, before the faces' edges update it)."""
+    spread = axis.spread
     cov = spread.scaled_cov()
     if cov is None or spread.bias_cov is None or not spread.bias_cov.any():
-        return spread
+        return axis
     cov = cov + spread.bias_cov
-    return replace(spread, pos_std_m=across_std(cov), pos_cov=cov)
+    return replace(axis, spread=replace(spread, pos_std_m=across_std(cov), pos_cov=cov))
 
 
 def axis_edges(prim: Primitive, source: Points, model: ModelNormals, radius_m: float) -> list[ModelEdge]:
@@ -291,8 +291,8 @@ def fit_axes(
     rng: np.random.Generator,
 ) -> AxisFits:
     """The stretched fit of ``source`` onto ``target`` from the registration's ``best``, then every primitive's
-    own fit (``fit_axis``, then ``with_edges``); ``threshold_m`` and ``spacing_m``: the registration's final
-    correspondence threshold and the target's median point spacing."""
+    own fit (``fit_axis``, then ``with_bias`` and ``with_edges``); ``threshold_m`` and ``spacing_m``: the
+    registration's final correspondence threshold and the target's median point spacing."""
     model = model_normals(smoothed_normals(source, surface_normals(source, median_spacing(source))))
     target_normals = surface_normals(target, spacing_m)
     pick = rng.permutation(source.shape[0])[:STRETCH_POINTS]
@@ -310,19 +310,21 @@ def fit_axes(
     edges = [axis_edges(prim, source, model, radius) for prim in chain]
     fits = tuple(
         with_edges(
-            fit_axis(
-                prim,
-                source,
-                model,
-                target,
-                target_normals,
-                whole=whole,
-                whole_points=sample,
-                grip=grip,
-                radius_m=radius,
-                threshold_m=threshold_m,
-                spacing_m=spacing_m,
-                edges=found,
+            with_bias(
+                fit_axis(
+                    prim,
+                    source,
+                    model,
+                    target,
+                    target_normals,
+                    whole=whole,
+                    whole_points=sample,
+                    grip=grip,
+                    radius_m=radius,
+                    threshold_m=threshold_m,
+                    spacing_m=spacing_m,
+                    edges=found,
+                )
             ),
             prim,
             found=found,
