@@ -74,9 +74,10 @@ def plausible_alternatives(reg: Registration) -> list[Similarity]:
     return [a.transform for a in reg.alignments[1:SPREAD_COUNT] if a.score >= reg.best.score - SPREAD_SCORE_GAP]
 
 
-def _uncertain_reason(i: int, unc: AxisUncertainty, misfit_m: float) -> str:
-    """The refusal line of axis ``i`` placed too loosely; naming its faces' misfit (metres) where that is most of
-    the position's variance."""
+def _uncertain_reason(i: int, unc: AxisUncertainty) -> str:
+    """The refusal line of axis ``i`` placed too loosely; naming its faces' misfit where that is most of the
+    position's variance."""
+    misfit_m = unc.registration_misfit_m
     out = (
         f"uncertain registration: axis {i} is placed within {unc.registration_pos_worst_m * 1e3:.1f} mm and "
         f"{math.degrees(unc.registration_dir_std_rad):.2f} deg (one sigma; want <= "
@@ -179,9 +180,9 @@ def transfer_descriptor(
         axis_uncertainty(prim, fit, t.scale, symmetry)
         for prim, fit, t, symmetry in zip(desc.chain, fits.axes, placed.transforms, placed.symmetry, strict=True)
     )
-    for i, (unc, fit, symmetry) in enumerate(zip(uncertainty, fits.axes, placed.symmetry, strict=True)):
+    for i, unc in enumerate(uncertainty):
         if unc.registration_pos_worst_m > MAX_AXIS_POS_STD_M or unc.registration_dir_std_rad > MAX_AXIS_DIR_STD_RAD:
-            reasons.append(_uncertain_reason(i, unc, fit.spread.misfit_std_m if symmetry is None else 0.0))
+            reasons.append(_uncertain_reason(i, unc))
     stretched_scores: dict[str, float | None] | None = None
     if reg.poor:
         judged = stretched_alignment(
@@ -244,7 +245,7 @@ def transfer_descriptor(
                 "neighbourhood_shift_mm": fit.whole_shift_m * 1e3,
                 "neighbourhood_turn_deg": math.degrees(fit.whole_turn_rad),
                 "neighbourhood_pos_std_m": _finite(fit.fit_pos_std_m),
-                "face_misfit_m": _finite(fit.spread.misfit_std_m),
+                "face_misfit_m": _finite(unc.registration_misfit_m),
                 "registration_pos_std_m": _finite(unc.registration_pos_std_m),
                 "registration_pos_worst_m": _finite(unc.registration_pos_worst_m),
                 "edges": [

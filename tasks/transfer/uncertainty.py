@@ -38,6 +38,9 @@ class AxisUncertainty:
     registration_dir_std_rad: float
     registration_pos_worst_m: float
     """The registration's position sigma in its worst-placed direction across the axis (``FitSpread``), metres."""
+    registration_misfit_m: float = 0.0
+    """The part of it from the placing fit's faces' systematic misfit (``FitSpread.misfit_std_m``), metres; 0 for
+    a translation or an axis point placed by a symmetry fit."""
 
     @property
     def pos_std_m(self) -> float:
@@ -61,18 +64,20 @@ def axis_uncertainty(prim: Primitive, fit: AxisFit, scale: float, symmetry: Symm
     ``fit``, its point placed by ``symmetry`` when not None (and its direction, when that fit carries a
     direction sigma: turned onto the body's axis)."""
     learned_pos = fit_number(prim.fit, "pos_std_m")
+    misfit = 0.0
     if prim.kind != "rotation":
         pos_std, worst = 0.0, 0.0
     elif symmetry is not None:
         pos_std, worst = symmetry.pos_std_m, symmetry.worst_pos_std_m
     else:
-        pos_std, worst = fit.spread.pos_std_m, fit.spread.worst_pos_std_m
+        pos_std, worst, misfit = fit.spread.pos_std_m, fit.spread.worst_pos_std_m, fit.spread.misfit_std_m
     return AxisUncertainty(
         learned_pos * scale if learned_pos is not None else None,
         fit_number(prim.fit, "dir_std_rad"),
         pos_std,
         symmetry.dir_std_rad if symmetry is not None and symmetry.dir_std_rad is not None else fit.spread.dir_std_rad,
         worst,
+        misfit,
     )
 
 
