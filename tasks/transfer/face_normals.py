@@ -100,6 +100,11 @@ def _spread(members: Points) -> tuple[FloatArray, float]:
     return direction, float(np.median(tilt)) / math.sqrt(2.0 * math.log(2.0))
 
 
+def _least_face(n: int) -> float:
+    """Normals of ``n`` that a face direction must hold: ``FACE_SHARE`` of them, at least 12."""
+    return max(FACE_SHARE * n, 12)
+
+
 def _within(normals: Points, candidates: Points, cosines: tuple[float, ...]) -> np.ndarray:
     """(len(cosines), c) counts of ``normals`` ((n, 3) unit, unsigned) at least each of ``cosines`` from each of
     ``candidates`` ((c, 3) unit), counted ``CHUNK_ROWS`` normals at a time so memory stays bounded."""
@@ -120,7 +125,7 @@ def normal_scatter(normals: Points) -> float:
     least = math.inf
     seen: list[FloatArray] = []
     for c in np.argsort(-counts, kind="stable"):
-        if counts[c] < max(FACE_SHARE * len(normals), 12):
+        if counts[c] < _least_face(len(normals)):
             break
         if any(abs(float(candidates[c] @ d)) >= cone for d in seen):
             continue  # a direction already measured
@@ -150,7 +155,7 @@ def face_directions(normals: Points, flat_deg: float = FLAT_DEG) -> FloatArray:
     while remaining.any():
         inside, within_ring = _within(normals[remaining], candidates, (flat, ring))
         around = within_ring - inside
-        ok = (inside >= max(FACE_SHARE * len(normals), 12)) & (inside >= FACE_CONTRAST * around)
+        ok = (inside >= _least_face(len(normals))) & (inside >= FACE_CONTRAST * around)
         if not ok.any():
             break
         best = candidates[int(np.where(ok, inside, -1).argmax())]
