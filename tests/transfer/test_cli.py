@@ -109,6 +109,13 @@ def test_model_reader_errors(store: Store, tmp_path: Path) -> None:
     (tmp_path / "junk.stl").write_bytes(b"junk")
     with pytest.raises(TransferError, match="unreadable or empty mesh"):
         read_model_file(tmp_path / "junk.stl")
+    whole = _write_ply(tmp_path / "whole.ply", np.random.default_rng(0).normal(size=(1000, 3))).read_bytes()
+    (tmp_path / "cut.ply").write_bytes(whole[: len(whole) // 2])  # a copy stopped halfway
+    with pytest.raises(TransferError, match=r"cut\.ply: PLY header declares \d+ bytes of elements but the file holds"):
+        read_model_file(tmp_path / "cut.ply")
+    (tmp_path / "words.xyz").write_text("hello world\nfoo bar baz\n")
+    with pytest.raises(TransferError, match=r"words\.xyz: empty point cloud"):
+        read_model_file(tmp_path / "words.xyz")
     with pytest.raises(TransferError, match="no such model file or recording"):
         read_recording_model(store, str(tmp_path / "gone.mcap"))
     with pytest.raises(TransferError, match="is neither in the store nor at its uri"):
