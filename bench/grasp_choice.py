@@ -28,16 +28,15 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bench.grasp import DEVELOPMENT_SEED, HELD_OUT_SEEDS, _seed_range
-from tasks.grasp.api import FIRM, check_seed, choose, rank
-from tasks.grasp.execution import execute_states, grasp_from_candidate, hand_and_object, robust
-from tasks.grasp.planner import GENERATORS, PlannerParams, search_space
+from tasks.grasp.api import choose, firm, ranked_grasps
+from tasks.grasp.execution import grasp_from_candidate, hand_and_object, robust
+from tasks.grasp.planner import PlannerParams
 from tasks.grasp.quality import grasp_quality
-from tasks.grasp.shake import CHECK_SHIFT_M, CHECK_TURN_TOL_RAD, ShakeResult, hold_check, shake_test
+from tasks.grasp.shake import ShakeResult, hold_check, shake_test
 from tests.grasp.cases.bench import row_setup, seed_cases
 
 VERDICTS = ("firm", "held", "failed")
@@ -57,22 +56,16 @@ class ObjectChoice:
 
 def verdict(check: ShakeResult) -> str:
     """``firm``, ``held`` or ``failed``: the planner's check of one grasp, as ``api.choose`` reads it."""
-    if not check.holds:
-        return "failed"
-    firm = check.max_shift_m <= FIRM * CHECK_SHIFT_M and check.max_turn_rad <= FIRM * CHECK_TURN_TOL_RAD
-    return "firm" if firm else "held"
+    return ("firm" if firm(check) else "held") if check.holds else "failed"
 
 
 def judge_object(seed: int, index: int, count: int, quick: bool) -> ObjectChoice:
     """Plan one object of benchmark seed ``seed`` and judge its first ``count`` robust grasps both ways."""
     case = seed_cases(seed, quick)[index][1]
     model, truth, program = row_setup(case, seed, index)
-    pos, quat = check_seed(case.seed_pos, case.seed_quat)
     prm = PlannerParams()
     rng = np.random.default_rng(seed)  # as plan_on_model draws it, so the ranked grasps are the plan's
-    space = search_space(model, Rotation.from_quat(quat).as_matrix(), pos, prm)
-    proposals = [p for generate in GENERATORS.values() for p in generate(model, space, prm, rng)]
-    ranked = sorted(execute_states(model, space, proposals, prm), key=rank)
+    ranked = ranked_grasps(model, case.seed_pos, case.seed_quat, rng, prm)
     if not ranked:
         return ObjectChoice(case.name, (), False)
     judged: list[tuple[str, bool]] = []

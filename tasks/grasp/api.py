@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
@@ -31,47 +30,12 @@ from tasks.grasp.execution import GraspCandidate, execute_states, grasp_from_can
 from tasks.grasp.object_model import ObjectModel, build_object_model, check_object_points
 from tasks.grasp.planner import GENERATORS, PlannerParams, search_space
 from tasks.grasp.quality import grasp_quality
-from tasks.grasp.shake import CHECK_LENGTH_S, CHECK_SHIFT_M, CHECK_TURN_TOL_RAD, hold_check, shake_test
+from tasks.grasp.shake import CHECK_LENGTH_S, CHECK_SHIFT_M, CHECK_TURN_TOL_RAD, ShakeResult, hold_check, shake_test
+from tasks.hand.tracker import GRASPIT_TRACKER_OFFSET, PalmOffset, palm_from_sensor
 from tasks.recording.load import PoseTrack
 
 SEED_WINDOW_S = 1.0
 """The seed is the stillest wrist pose within this long before the first primitive's start (``stillest_time_ns``)."""
-
-
-@dataclass(frozen=True)
-class PalmOffset:
-    """Sensor-to-palm transform: palm = sensor · Trans(translation_m) · R, R = Rz(yaw) then Ry(pitch) (intrinsic)."""
-
-    translation_m: tuple[float, float, float] = (0.0, -0.060, -0.035)
-    yaw_rad: float = math.radians(90.0)
-    pitch_rad: float = math.radians(30.0)
-
-    def rotation(self) -> Rotation:
-        """The offset's rotation (sensor frame to palm frame)."""
-        return Rotation.from_euler("ZY", [self.yaw_rad, self.pitch_rad])
-
-
-GRASPIT_TRACKER_OFFSET = PalmOffset()
-"""GraspIt!'s Barrett model: tracker at (0, -60, -35) mm, then 90° about z and 30° about y."""
-
-
-def palm_from_sensor(
-    position: Vector3, quat_xyzw: FloatArray, offset: PalmOffset = GRASPIT_TRACKER_OFFSET
-) -> tuple[Vector3, FloatArray]:
-    """Palm pose (position (3,) m, quaternion [x, y, z, w]) in the world for a tracker pose in the world."""
-    sensor = Rotation.from_quat(quat_xyzw)
-    palm_pos = np.asarray(position, dtype=np.float64) + sensor.apply(np.array(offset.translation_m))
-    return palm_pos, (sensor * offset.rotation()).as_quat()
-
-
-def sensor_from_palm(
-    position: Vector3, quat_xyzw: FloatArray, offset: PalmOffset = GRASPIT_TRACKER_OFFSET
-) -> tuple[Vector3, FloatArray]:
-    """Tracker pose (position (3,) m, quaternion [x, y, z, w], world) whose palm is the given world pose: the
-    inverse of ``palm_from_sensor``, for writing a wrist track that seeds a wanted palm pose."""
-    sensor = Rotation.from_quat(quat_xyzw) * offset.rotation().inv()
-    sensor_pos = np.asarray(position, dtype=np.float64) - sensor.apply(np.array(offset.translation_m))
-    return sensor_pos, sensor.as_quat()
 
 
 def wrist_pose_at(track: PoseTrack, stamp_ns: int) -> tuple[Vector3, FloatArray]:
@@ -140,6 +104,16 @@ def rank(cand: GraspCandidate) -> tuple[bool, float]:
     return not cand.quality.force_closure, cand.closeness
 
 
+def ranked_grasps(
+    model: ObjectModel, seed_pos: Vector3, seed_quat_xyzw: FloatArray, rng: np.random.Generator, params: PlannerParams
+) -> list[GraspCandidate]:
+    """Every generator's proposals about a palm seed (world) executed and ranked (``rank``): what ``choose`` takes."""
+    pos, quat = check_seed(seed_pos, seed_quat_xyzw)
+    space = search_space(model, Rotation.from_quat(quat).as_matrix(), pos, params)
+    proposals = [p for generate in GENERATORS.values() for p in generate(model, space, params, rng)]
+    return sorted(execute_states(model, space, proposals, params), key=rank)
+
+
 def plan_on_model(
     model: ObjectModel,
     seed_position: Vector3,
@@ -149,15 +123,17 @@ def plan_on_model(
 ) -> GraspCandidate:
     """The planned grasp on a built model from a palm seed (world): see the module docstring. Raises
     ``GraspError`` when no proposal can be executed (the open hand collides everywhere near the seed)."""
-    pos, quat = check_seed(seed_position, seed_quat_xyzw)
     prm = params or PlannerParams()
-    space = search_space(model, Rotation.from_quat(quat).as_matrix(), pos, prm)
-    proposals = [p for generate in GENERATORS.values() for p in generate(model, space, prm, rng)]
-    ranked = sorted(execute_states(model, space, proposals, prm), key=rank)
+    ranked = ranked_grasps(model, seed_position, seed_quat_xyzw, rng, prm)
     if not ranked:
         msg = "no collision-free grasp found near the seed pose"
         raise GraspError(msg)
     return choose(model, ranked, prm)
+
+
+def firm(result: ShakeResult) -> bool:
+    """Whether a hold check's part moved and turned at most ``FIRM`` of its tolerances."""
+    return result.max_shift_m <= FIRM * CHECK_SHIFT_M and result.max_turn_rad <= FIRM * CHECK_TURN_TOL_RAD
 
 
 def choose(model: ObjectModel, ranked: list[GraspCandidate], params: PlannerParams) -> GraspCandidate:
@@ -179,7 +155,7 @@ def choose(model: ObjectModel, ranked: list[GraspCandidate], params: PlannerPara
             quality = cand.quality if cand.quality.force_closure else grasp_quality(*squeezed)
             if result.holds and quality.force_closure:
                 held.append(dataclasses.replace(cand, quality=quality))
-                if result.max_shift_m <= FIRM * CHECK_SHIFT_M and result.max_turn_rad <= FIRM * CHECK_TURN_TOL_RAD:
+                if firm(result):
                     return held[-1]
     return held[0] if held else next((c for c in ranked if c.quality.force_closure), ranked[0])
 

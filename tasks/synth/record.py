@@ -2,7 +2,7 @@
 ``PATH.truth.json`` beside it.
 
 Topics: ``/mocap/<marker>`` ``geometry_msgs/PointStamped`` (occluded samples absent), ``/wrist/pose``
-``geometry_msgs/PoseStamped`` (the tracker, not the palm: ``tasks.grasp.api.sensor_from_palm``),
+``geometry_msgs/PoseStamped`` (the tracker, not the palm: ``tasks.hand.tracker.sensor_from_palm``),
 ``/object/model`` ``sensor_msgs/PointCloud2`` (world frame, at the start) and ``/demo/meta`` ``std_msgs/String``
 JSON ``{"action", "object", "scene", "seed"}``. The first mocap sample, the object model and the meta are at
 ``START_NS``. The same scene and seed give byte-identical output; nothing is ever overwritten.
@@ -21,7 +21,7 @@ import pybullet as pb
 
 from tasks.arrays import Points
 from tasks.errors import RecordingError, SceneError
-from tasks.grasp.api import sensor_from_palm
+from tasks.hand.tracker import sensor_from_palm
 from tasks.recording.writer import RecordingWriter
 from tasks.scenes.catalog import SCENE_NAMES, build_scene
 from tasks.scenes.kinematics import load_scene, palm_pose_world, truth_chain

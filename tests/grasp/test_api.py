@@ -1,4 +1,4 @@
-"""The grasp API: seeds from a wrist track, the sensor-to-palm offset, part cropping, and its errors."""
+"""The grasp API: seeds from a wrist track through the tracker's offset from the palm, part cropping, and its errors."""
 
 from __future__ import annotations
 
@@ -11,16 +11,8 @@ from scipy.spatial.transform import Rotation
 
 from tasks.arrays import Points
 from tasks.errors import GraspError
-from tasks.grasp.api import (
-    GRASPIT_TRACKER_OFFSET,
-    PalmOffset,
-    palm_from_sensor,
-    part_near,
-    plan_grasp,
-    plan_grasp_for_recording,
-    sensor_from_palm,
-    wrist_pose_at,
-)
+from tasks.grasp.api import part_near, plan_grasp, plan_grasp_for_recording, wrist_pose_at
+from tasks.hand.tracker import GRASPIT_TRACKER_OFFSET, PalmOffset, palm_from_sensor, sensor_from_palm
 from tasks.recording.load import PoseTrack
 from tasks.store import Store
 from tests.grasp.surface_sampling import sample_cylinder_surface

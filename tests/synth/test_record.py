@@ -15,7 +15,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from tasks.errors import RecordingError
-from tasks.grasp.api import palm_from_sensor
+from tasks.hand.tracker import palm_from_sensor
 from tasks.ingest.api import ingest_recording
 from tasks.recording.load import RecordingData, load_recording
 from tasks.scenes.kinematics import link_frames, load_scene, min_jerk, set_joints
