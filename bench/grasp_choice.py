@@ -32,11 +32,10 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bench.grasp import DEVELOPMENT_SEED, HELD_OUT_SEEDS, _seed_range
-from tasks.grasp.api import choose, firm, ranked_grasps
+from tasks.grasp.api import check_hold, choose, firm, ranked_grasps
 from tasks.grasp.execution import grasp_from_candidate, hand_and_object, robust
 from tasks.grasp.planner import PlannerParams
-from tasks.grasp.quality import grasp_quality
-from tasks.grasp.shake import ShakeResult, hold_check, shake_test
+from tasks.grasp.shake import ShakeResult, shake_test
 from tests.grasp.cases.bench import row_setup, seed_cases
 
 VERDICTS = ("firm", "held", "failed")
@@ -75,11 +74,9 @@ def judge_object(seed: int, index: int, count: int, quick: bool) -> ObjectChoice
                 break
             if not robust(ids, model, cand, prm.mu):
                 continue
-            grasp = grasp_from_candidate(cand)
-            check = shake_test(model, grasp, hold_check(cand.quat_xyzw))
-            squeezed = (check.squeezed_positions, check.squeezed_normals, model.center, model.radius, prm.mu)
-            closure = cand.quality.force_closure or grasp_quality(*squeezed).force_closure
-            judged.append((verdict(check) if closure else "failed", shake_test(truth, grasp, program).holds))
+            check, quality = check_hold(model, cand, prm.mu)
+            bench_holds = shake_test(truth, grasp_from_candidate(cand), program).holds
+            judged.append((verdict(check) if quality.force_closure else "failed", bench_holds))
     plan = choose(model, ranked, prm)
     return ObjectChoice(case.name, tuple(judged), shake_test(truth, grasp_from_candidate(plan), program).holds)
 

@@ -29,7 +29,7 @@ from tasks.errors import GraspError
 from tasks.grasp.execution import GraspCandidate, execute_states, grasp_from_candidate, hand_and_object, robust
 from tasks.grasp.object_model import ObjectModel, build_object_model, check_object_points
 from tasks.grasp.planner import GENERATORS, PlannerParams, search_space
-from tasks.grasp.quality import grasp_quality
+from tasks.grasp.quality import GraspQuality, grasp_quality
 from tasks.grasp.shake import CHECK_LENGTH_S, CHECK_SHIFT_M, CHECK_TURN_TOL_RAD, ShakeResult, hold_check, shake_test
 from tasks.hand.tracker import GRASPIT_TRACKER_OFFSET, PalmOffset, palm_from_sensor
 from tasks.recording.load import PoseTrack
@@ -131,6 +131,15 @@ def plan_on_model(
     return choose(model, ranked, prm)
 
 
+def check_hold(model: ObjectModel, cand: GraspCandidate, mu: float) -> tuple[ShakeResult, GraspQuality]:
+    """``hold_check`` of ``cand`` on ``model`` and the grasp's quality at friction ``mu``: its own when a force
+    closure, else that of the contacts once the fingers have squeezed the part."""
+    result = shake_test(model, grasp_from_candidate(cand), hold_check(cand.quat_xyzw))
+    if cand.quality.force_closure:
+        return result, cand.quality
+    return result, grasp_quality(result.squeezed_positions, result.squeezed_normals, model.center, model.radius, mu)
+
+
 def firm(result: ShakeResult) -> bool:
     """Whether a hold check's part moved and turned at most ``FIRM`` of its tolerances."""
     return result.max_shift_m <= FIRM * CHECK_SHIFT_M and result.max_turn_rad <= FIRM * CHECK_TURN_TOL_RAD
@@ -149,10 +158,8 @@ def choose(model: ObjectModel, ranked: list[GraspCandidate], params: PlannerPara
                 break
             if not robust(ids, model, cand, params.mu):
                 continue  # a grasp that only holds at the exact planned pose is not a grasp
-            result = shake_test(model, grasp_from_candidate(cand), hold_check(cand.quat_xyzw))
+            result, quality = check_hold(model, cand, params.mu)
             left -= result.survived_s
-            squeezed = (result.squeezed_positions, result.squeezed_normals, model.center, model.radius, params.mu)
-            quality = cand.quality if cand.quality.force_closure else grasp_quality(*squeezed)
             if result.holds and quality.force_closure:
                 held.append(dataclasses.replace(cand, quality=quality))
                 if firm(result):
