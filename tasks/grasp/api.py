@@ -21,7 +21,7 @@ import math
 
 import numpy as np
 import numpy.typing as npt
-from scipy.spatial.transform import Rotation, Slerp
+from scipy.spatial.transform import Rotation
 
 from schemas.descriptor import Grasp
 from tasks.arrays import FloatArray, Points, Vector3
@@ -31,47 +31,8 @@ from tasks.grasp.object_model import ObjectModel, build_object_model, check_obje
 from tasks.grasp.planner import GENERATORS, PlannerParams, search_space
 from tasks.grasp.quality import GraspQuality, grasp_quality
 from tasks.grasp.shake import CHECK_LENGTH_S, CHECK_SHIFT_M, CHECK_TURN_TOL_RAD, ShakeResult, hold_check, shake_test
-from tasks.hand.tracker import GRASPIT_TRACKER_OFFSET, PalmOffset, palm_from_sensor
+from tasks.hand.tracker import GRASPIT_TRACKER_OFFSET, PalmOffset, palm_from_sensor, stillest_time_ns, wrist_pose_at
 from tasks.recording.load import PoseTrack
-
-SEED_WINDOW_S = 1.0
-"""The seed is the stillest wrist pose within this long before the first primitive's start (``stillest_time_ns``)."""
-
-
-def wrist_pose_at(track: PoseTrack, stamp_ns: int) -> tuple[Vector3, FloatArray]:
-    """Tracker pose at ``stamp_ns`` (positions linear, orientations slerped; clamped to the track's span)."""
-    ok = np.all(np.isfinite(track.positions), axis=1) & np.all(np.isfinite(track.quats), axis=1)
-    stamps = np.asarray(track.stamps_ns)[ok]
-    if len(stamps) == 0:
-        msg = f"wrist track {track.frame}: no finite samples"
-        raise GraspError(msg)
-    positions = np.asarray(track.positions, dtype=np.float64)[ok]
-    quats = np.asarray(track.quats, dtype=np.float64)[ok]
-    t = float(np.clip(stamp_ns, stamps[0], stamps[-1]) - stamps[0]) * 1e-9
-    times = (stamps - stamps[0]).astype(np.float64) * 1e-9
-    if len(stamps) == 1 or not np.all(np.diff(times) > 0):
-        i = int(np.argmin(np.abs(times - t)))
-        return positions[i], quats[i] / np.linalg.norm(quats[i])
-    pos = np.array([np.interp(t, times, positions[:, k]) for k in range(3)])
-    return pos, Slerp(times, Rotation.from_quat(quats))(t).as_quat()
-
-
-def stillest_time_ns(track: PoseTrack, stamp_ns: int, window_s: float = SEED_WINDOW_S) -> int:
-    """The stamp (ns) in ``[stamp_ns - window_s, stamp_ns]`` where the wrist moves least (over ±0.1 s: 10 mm or
-    2° count alike; near-ties go to the latest): the moment the demonstrator's hand rested on the part while
-    closing, the grasp. A primitive's detected start can come late, after the hand began turning the part."""
-    half_ns = 100_000_000
-    times: list[int] = []
-    costs: list[float] = []
-    for k in range(round(window_s / 0.05), -1, -1):
-        t = stamp_ns - k * 50_000_000
-        p0, q0 = wrist_pose_at(track, t - half_ns)
-        p1, q1 = wrist_pose_at(track, t + half_ns)
-        turn = float((Rotation.from_quat(q0).inv() * Rotation.from_quat(q1)).magnitude())
-        times.append(t)
-        costs.append(float(np.linalg.norm(p1 - p0)) / 0.01 + turn / math.radians(2.0))
-    floor = min(costs) + 0.25  # ties (within 2.5 mm or 0.5°) go to the latest moment
-    return max(t for t, c in zip(times, costs, strict=True) if c <= floor)
 
 
 def check_seed(seed_position: object, seed_quat_xyzw: object) -> tuple[Vector3, FloatArray]:

@@ -11,8 +11,14 @@ from scipy.spatial.transform import Rotation
 
 from tasks.arrays import Points
 from tasks.errors import GraspError
-from tasks.grasp.api import part_near, plan_grasp, plan_grasp_for_recording, wrist_pose_at
-from tasks.hand.tracker import GRASPIT_TRACKER_OFFSET, PalmOffset, palm_from_sensor, sensor_from_palm
+from tasks.grasp.api import part_near, plan_grasp, plan_grasp_for_recording
+from tasks.hand.tracker import (
+    GRASPIT_TRACKER_OFFSET,
+    PalmOffset,
+    palm_from_sensor,
+    sensor_from_palm,
+    wrist_pose_at,
+)
 from tasks.recording.load import PoseTrack
 from tasks.store import Store
 from tests.grasp.surface_sampling import sample_cylinder_surface

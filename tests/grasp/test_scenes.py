@@ -9,10 +9,11 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from tasks.grasp.api import part_near, plan_on_model, stillest_time_ns
+from tasks.grasp.api import part_near, plan_on_model
 from tasks.grasp.execution import grasp_from_candidate
 from tasks.grasp.object_model import build_object_model
 from tasks.hand import barrett
+from tasks.hand.tracker import stillest_time_ns
 from tasks.recording.load import PoseTrack
 from tasks.scenes.catalog import build_scene
 from tasks.scenes.kinematics import truth_descriptor
