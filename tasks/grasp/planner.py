@@ -14,7 +14,8 @@ to the object plus 50 mm times their normals' misalignment; a state whose hand s
 a chain of ``steps`` per start; every state evaluated is offered to the list of the best unique states (``BestList``).
 
 **Proposals** (``GENERATORS``): the generators of states to execute, registered in one place, each proposing nothing
-where its mechanism does not apply; ``tasks.grasp.api.plan_on_model`` executes them all and ranks the grasps together.
+where its mechanism does not apply (the bar's two need a bar, ``find_bar``); ``tasks.grasp.api.plan_on_model``
+executes them all and ranks the grasps together.
 """
 
 from __future__ import annotations
@@ -294,13 +295,46 @@ def demonstrated(
     ]
 
 
-def _bar_axis(model: ObjectModel, space: SearchSpace) -> np.ndarray | None:
-    """The unit axis (world) of the model's bar when it lies within 60° of square to the demonstrated approach (a bar
-    along the approach, a cap, is no bar to slide along or pinch across), else None."""
-    if model.cylinder is None:
+BAR_ELONGATION = 3.0
+"""A mounted part at least three times as long as it is wide (its posts included) is a bar the fingers close across,
+whatever its profile: round, square or D-shaped."""
+
+
+@dataclass(frozen=True)
+class Bar:
+    """A bar: unit ``axis``, ``centre`` (3,) of its axis, ``half_length`` and ``half_width`` (m, world)."""
+
+    axis: FloatArray
+    centre: Vector3
+    half_length: float
+    half_width: float
+
+
+def find_bar(model: ObjectModel, space: SearchSpace) -> Bar | None:
+    """The model's bar when it lies within 60° of square to the demonstrated approach (a bar along the approach, a
+    cap, is no bar to slide along or pinch across), else None: its exact cylinder, or else a mounted part's points
+    spread ``BAR_ELONGATION`` times as long (principal axis) as they are wide across it and the approach (the 2nd
+    to 98th percentile), its axis that half width behind the part's front."""
+    if model.cylinder is not None:
+        shape = model.cylinder
+        axis = Rotation.from_quat(shape.quat_xyzw).apply([0.0, 0.0, 1.0])
+        bar = Bar(axis, np.asarray(shape.position, dtype=np.float64), float(shape.size[1]), float(shape.size[0]))
+    elif model.mount is not None and np.count_nonzero(~model.mount) >= 3:
+        part = model.points[~model.mount]
+        axis = np.linalg.svd(part - part.mean(axis=0), full_matrices=False)[2][0]
+        depth = space.seed_rot[:, 2] - float(space.seed_rot[:, 2] @ axis) * axis
+        depth /= max(float(np.linalg.norm(depth)), 1e-9)
+        frame = np.stack([axis, np.cross(depth, axis), depth])
+        low, high = np.percentile(part @ frame.T, (2, 98), axis=0)
+        half, width = 0.5 * (high - low)[:2]
+        if half < BAR_ELONGATION * width:
+            return None
+        bar = Bar(
+            axis, np.array([0.5 * (low[0] + high[0]), 0.5 * (low[1] + high[1]), low[2] + width]) @ frame, half, width
+        )
+    else:
         return None
-    axis = Rotation.from_quat(model.cylinder.quat_xyzw).apply([0.0, 0.0, 1.0])
-    return axis if math.hypot(*(axis @ space.seed_rot[:, :2])) >= 0.5 else None
+    return bar if math.hypot(*(bar.axis @ space.seed_rot[:, :2])) >= 0.5 else None
 
 
 def along_the_bar(
@@ -309,10 +343,10 @@ def along_the_bar(
     """The demonstrated palm slid ``SLIDES_M`` either way along the bar (its axis taken across the approach), at
     the pivot and held back, at ``TIP_SPREADS_RAD``, closed where it is. A bar is held anywhere along it, and the
     demonstrated place may be where a post or the fingers' sweep into the plate behind it gets in the way."""
-    axis = _bar_axis(model, space)
-    if axis is None:
+    bar = find_bar(model, space)
+    if bar is None:
         return []
-    u, v = axis @ space.seed_rot[:, :2] / math.hypot(*(axis @ space.seed_rot[:, :2]))
+    u, v = bar.axis @ space.seed_rot[:, :2] / math.hypot(*(bar.axis @ space.seed_rot[:, :2]))
     return [
         Proposal("along the bar", _at(spread, space.pivot_m + back, 0.0, s * u, s * v), 0.0)
         for slide in SLIDES_M
@@ -345,16 +379,16 @@ def square_pinch(
     fingertips closing on the bar's widest (``barrett.tip_depth``): tips meeting it short of or past its widest push
     it out or drag it rolling towards the palm as they squeeze. Fingers 1 and 2 face to face (spread π/2) with the
     palm ``TIP_DISTANCES_M`` from the bar."""
-    axis = _bar_axis(model, space)
-    if axis is None or model.cylinder is None:
+    bar = find_bar(model, space)
+    if bar is None:
         return []
+    axis = bar.axis
     approach = space.seed_rot[:, 2]
     square = approach - float(approach @ axis) * axis
     z = square / float(np.linalg.norm(square))
     x = axis if float(axis @ space.seed_rot[:, 0]) >= 0.0 else -axis
     rot = np.stack([x, np.cross(z, x), z], axis=1)
-    centre = np.asarray(model.cylinder.position, dtype=np.float64)
-    half, radius = float(model.cylinder.size[1]), float(model.cylinder.size[0])
+    centre, half, radius = bar.centre, bar.half_length, bar.half_width
     through = centre + float(np.clip((space.seed_pos - centre) @ axis, -half, half)) * axis
     states = [space.state(rot, through - z * barrett.tip_depth(radius), TIP_SPREADS_RAD[0])]
     states += [space.state(rot, through - z * (radius + d), TIP_SPREADS_RAD[1]) for d in TIP_DISTANCES_M]

@@ -24,6 +24,7 @@ from tasks.grasp.planner import (
     PlannerParams,
     anneal,
     contact_energy,
+    find_bar,
     ingber_from_uniforms,
     search_space,
     square_pinch,
@@ -32,7 +33,9 @@ from tasks.grasp.planner import (
 )
 from tasks.grasp.shake import hold_check, shake_test
 from tasks.hand import barrett
+from tests.grasp.cases.bench import row_setup
 from tests.grasp.cases.exact import labelled_model
+from tests.grasp.cases.families import CENTRE, family_case
 from tests.grasp.cases.grasp import PLATE_POINTS, handle_on_plate
 
 from .conftest import HANDLE_CENTER, PALM_DOWN
@@ -143,3 +146,26 @@ def test_a_square_pinch_closes_thumb_and_fingers_on_a_thin_bar_at_its_widest() -
             assert len(normals) >= 3
             # opposed across the bar's axis: no squeeze drags the bar towards the palm or pushes it out
             assert np.all(np.abs(normals @ rot[:, 2]) < math.sin(math.radians(10.0)))
+
+
+@pytest.mark.parametrize("profile", ["D", "square", "round"])
+def test_a_bar_of_any_profile_is_found_from_its_points(profile: str) -> None:
+    """A pull's bar, round, square or D-shaped (the latter two with no fitted cylinder), is found along its axis
+    through the profile's centre at its half width, across a scan of 1 mm noise; a knob is no bar."""
+    for seed in range(3):
+        case = family_case(f"{profile} pull", np.random.default_rng(seed))
+        name = case.name.split()
+        width = float(name[2][1:]) / 2000.0  # "w<full width in mm>"
+        axis = np.array([0.0, 0.0, 1.0]) if name[-1] == "vertical" else np.array([1.0, 0.0, 0.0])
+        model, _, _ = row_setup(case, seed, 0)
+        space = search_space(model, Rotation.from_quat(case.seed_quat).as_matrix(), case.seed_pos, PlannerParams())
+        bar = find_bar(model, space)
+        assert bar is not None, case.name
+        assert abs(float(bar.axis @ axis)) > math.cos(math.radians(5.0))
+        off = bar.centre - CENTRE
+        assert np.linalg.norm(off - (off @ axis) * axis) < 0.004  # on the bar's axis, along it anywhere
+        assert abs(bar.half_width - width) < 0.003
+    knob = family_case("knob", np.random.default_rng(0))
+    model, _, _ = row_setup(knob, 0, 0)
+    space = search_space(model, Rotation.from_quat(knob.seed_quat).as_matrix(), knob.seed_pos, PlannerParams())
+    assert find_bar(model, space) is None
