@@ -14,7 +14,7 @@ to the object plus 50 mm times their normals' misalignment; a state whose hand s
 a chain of ``steps`` per start; every state evaluated is offered to the list of the best unique states (``BestList``).
 
 **Proposals** (``GENERATORS``): the generators of states to execute, registered in one place, each proposing nothing
-where its mechanism does not apply (the bar's two need a bar, ``find_bar``); ``tasks.grasp.api.plan_on_model``
+where its mechanism does not apply (the bar's two need a bar, ``find_bars``); ``tasks.grasp.api.plan_on_model``
 executes them all and ranks the grasps together.
 """
 
@@ -29,6 +29,7 @@ from scipy.spatial.transform import Rotation
 
 from tasks.arrays import FloatArray, Vector3
 from tasks.grasp.object_model import ObjectModel
+from tasks.grasp.primitive_fit import PrimitiveShape
 from tasks.grasp.quality import DEFAULT_MU
 from tasks.hand import barrett
 
@@ -310,31 +311,40 @@ class Bar:
     half_width: float
 
 
-def find_bar(model: ObjectModel, space: SearchSpace) -> Bar | None:
-    """The model's bar when it lies within 60° of square to the demonstrated approach (a bar along the approach, a
-    cap, is no bar to slide along or pinch across), else None: its exact cylinder, or else a mounted part's points
-    spread ``BAR_ELONGATION`` times as long (principal axis) as they are wide across it and the approach (the 2nd
-    to 98th percentile), its axis that half width behind the part's front."""
-    if model.cylinder is not None:
-        shape = model.cylinder
-        axis = Rotation.from_quat(shape.quat_xyzw).apply([0.0, 0.0, 1.0])
-        bar = Bar(axis, np.asarray(shape.position, dtype=np.float64), float(shape.size[1]), float(shape.size[0]))
+def _shape_bars(shape: PrimitiveShape, approach: FloatArray) -> list[Bar]:
+    """A cylinder as the bar along its axis; a box as a bar along each of its two edges most square to
+    ``approach``, as wide as the box across it: the fingertips close on two parallel faces either way."""
+    rot = Rotation.from_quat(shape.quat_xyzw).as_matrix()
+    centre = np.asarray(shape.position, dtype=np.float64)
+    if shape.kind == "cylinder":
+        return [Bar(rot[:, 2], centre, float(shape.size[1]), float(shape.size[0]))]
+    along = int(np.argmax(np.abs(approach @ rot)))
+    edges = [k for k in range(3) if k != along]
+    return [Bar(rot[:, k], centre, float(shape.size[k]), float(shape.size[3 - along - k])) for k in edges]
+
+
+def find_bars(model: ObjectModel, space: SearchSpace) -> list[Bar]:
+    """The model's bars within 60° of square to the demonstrated approach (a bar along the approach, a cap, is no
+    bar to slide along or pinch across): its exact cylinder or fitted primitive (``_shape_bars``), or else a mounted
+    part's points spread ``BAR_ELONGATION`` times as long (principal axis) as they are wide across it and the
+    approach (the 2nd to 98th percentile), its axis that half width behind the part's front."""
+    approach = space.seed_rot[:, 2]
+    shape = model.cylinder or model.primitive
+    if shape is not None:
+        bars = _shape_bars(shape, approach)
     elif model.mount is not None and np.count_nonzero(~model.mount) >= 3:
         part = model.points[~model.mount]
         axis = np.linalg.svd(part - part.mean(axis=0), full_matrices=False)[2][0]
-        depth = space.seed_rot[:, 2] - float(space.seed_rot[:, 2] @ axis) * axis
+        depth = approach - float(approach @ axis) * axis
         depth /= max(float(np.linalg.norm(depth)), 1e-9)
         frame = np.stack([axis, np.cross(depth, axis), depth])
         low, high = np.percentile(part @ frame.T, (2, 98), axis=0)
         half, width = 0.5 * (high - low)[:2]
-        if half < BAR_ELONGATION * width:
-            return None
-        bar = Bar(
-            axis, np.array([0.5 * (low[0] + high[0]), 0.5 * (low[1] + high[1]), low[2] + width]) @ frame, half, width
-        )
+        mid = np.array([0.5 * (low[0] + high[0]), 0.5 * (low[1] + high[1]), low[2] + width]) @ frame
+        bars = [Bar(axis, mid, half, width)] if half >= BAR_ELONGATION * width else []
     else:
-        return None
-    return bar if math.hypot(*(bar.axis @ space.seed_rot[:, :2])) >= 0.5 else None
+        bars = []
+    return [bar for bar in bars if math.hypot(*(bar.axis @ space.seed_rot[:, :2])) >= 0.5]
 
 
 def along_the_bar(
@@ -343,17 +353,17 @@ def along_the_bar(
     """The demonstrated palm slid ``SLIDES_M`` either way along the bar (its axis taken across the approach), at
     the pivot and held back, at ``TIP_SPREADS_RAD``, closed where it is. A bar is held anywhere along it, and the
     demonstrated place may be where a post or the fingers' sweep into the plate behind it gets in the way."""
-    bar = find_bar(model, space)
-    if bar is None:
-        return []
-    u, v = bar.axis @ space.seed_rot[:, :2] / math.hypot(*(bar.axis @ space.seed_rot[:, :2]))
-    return [
-        Proposal("along the bar", _at(spread, space.pivot_m + back, 0.0, s * u, s * v), 0.0)
-        for slide in SLIDES_M
-        for s in (slide, -slide)
-        for back in (0.0, HOLD_BACK_M)
-        for spread in TIP_SPREADS_RAD
-    ]
+    proposals = []
+    for bar in find_bars(model, space):
+        u, v = bar.axis @ space.seed_rot[:, :2] / math.hypot(*(bar.axis @ space.seed_rot[:, :2]))
+        proposals += [
+            Proposal("along the bar", _at(spread, space.pivot_m + back, 0.0, s * u, s * v), 0.0)
+            for slide in SLIDES_M
+            for s in (slide, -slide)
+            for back in (0.0, HOLD_BACK_M)
+            for spread in TIP_SPREADS_RAD
+        ]
+    return proposals
 
 
 def pinch(model: ObjectModel, _space: SearchSpace, _params: PlannerParams, _rng: np.random.Generator) -> list[Proposal]:
@@ -379,20 +389,19 @@ def square_pinch(
     fingertips closing on the bar's widest (``barrett.tip_depth``): tips meeting it short of or past its widest push
     it out or drag it rolling towards the palm as they squeeze. Fingers 1 and 2 face to face (spread π/2) with the
     palm ``TIP_DISTANCES_M`` from the bar."""
-    bar = find_bar(model, space)
-    if bar is None:
-        return []
-    axis = bar.axis
-    approach = space.seed_rot[:, 2]
-    square = approach - float(approach @ axis) * axis
-    z = square / float(np.linalg.norm(square))
-    x = axis if float(axis @ space.seed_rot[:, 0]) >= 0.0 else -axis
-    rot = np.stack([x, np.cross(z, x), z], axis=1)
-    centre, half, radius = bar.centre, bar.half_length, bar.half_width
-    through = centre + float(np.clip((space.seed_pos - centre) @ axis, -half, half)) * axis
-    states = [space.state(rot, through - z * barrett.tip_depth(radius), TIP_SPREADS_RAD[0])]
-    states += [space.state(rot, through - z * (radius + d), TIP_SPREADS_RAD[1]) for d in TIP_DISTANCES_M]
-    return [Proposal("square pinch", s, 0.0) for s in states if space.inside(s)]
+    proposals = []
+    for bar in find_bars(model, space):
+        approach = space.seed_rot[:, 2]
+        square = approach - float(approach @ bar.axis) * bar.axis
+        z = square / float(np.linalg.norm(square))
+        x = bar.axis if float(bar.axis @ space.seed_rot[:, 0]) >= 0.0 else -bar.axis
+        rot = np.stack([x, np.cross(z, x), z], axis=1)
+        half, radius = bar.half_length, bar.half_width
+        through = bar.centre + float(np.clip((space.seed_pos - bar.centre) @ x, -half, half)) * x
+        states = [space.state(rot, through - z * barrett.tip_depth(radius), TIP_SPREADS_RAD[0])]
+        states += [space.state(rot, through - z * (radius + d), TIP_SPREADS_RAD[1]) for d in TIP_DISTANCES_M]
+        proposals += [Proposal("square pinch", s, 0.0) for s in states if space.inside(s)]
+    return proposals
 
 
 GENERATORS: dict[str, Generator] = {

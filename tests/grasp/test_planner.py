@@ -24,7 +24,7 @@ from tasks.grasp.planner import (
     PlannerParams,
     anneal,
     contact_energy,
-    find_bar,
+    find_bars,
     ingber_from_uniforms,
     search_space,
     square_pinch,
@@ -159,8 +159,7 @@ def test_a_bar_of_any_profile_is_found_from_its_points(profile: str) -> None:
         axis = np.array([0.0, 0.0, 1.0]) if name[-1] == "vertical" else np.array([1.0, 0.0, 0.0])
         model, _, _ = row_setup(case, seed, 0)
         space = search_space(model, Rotation.from_quat(case.seed_quat).as_matrix(), case.seed_pos, PlannerParams())
-        bar = find_bar(model, space)
-        assert bar is not None, case.name
+        (bar,) = find_bars(model, space)
         assert abs(float(bar.axis @ axis)) > math.cos(math.radians(5.0))
         off = bar.centre - CENTRE
         assert np.linalg.norm(off - (off @ axis) * axis) < 0.004  # on the bar's axis, along it anywhere
@@ -168,4 +167,21 @@ def test_a_bar_of_any_profile_is_found_from_its_points(profile: str) -> None:
     knob = family_case("knob", np.random.default_rng(0))
     model, _, _ = row_setup(knob, 0, 0)
     space = search_space(model, Rotation.from_quat(knob.seed_quat).as_matrix(), knob.seed_pos, PlannerParams())
-    assert find_bar(model, space) is None
+    assert find_bars(model, space) == []
+
+
+def test_a_box_is_a_bar_along_either_edge_square_to_the_approach(box_points: Points) -> None:
+    """Looked down on, the fitted box is pinched across either pair of upright faces: a bar along each horizontal
+    edge, as wide as the box across it."""
+    seed = np.array([0.5, 0.1, 0.3 + 0.04 + 0.05])
+    model = build_object_model(box_points, np.random.default_rng(3), viewpoint=seed)
+    assert model.primitive is not None and model.primitive.kind == "box"
+    space = search_space(model, Rotation.from_quat(PALM_DOWN).as_matrix(), seed, PlannerParams())
+    bars = find_bars(model, space)
+    assert len(bars) == 2
+    for bar in bars:
+        assert abs(float(bar.axis[2])) < 0.05
+        across = np.cross(bar.axis, [0.0, 0.0, 1.0])
+        extent = box_points @ across
+        assert abs(bar.half_width - 0.5 * float(extent.max() - extent.min())) < 0.003
+    assert square_pinch(model, space, PlannerParams(), np.random.default_rng(0))
