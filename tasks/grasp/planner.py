@@ -296,6 +296,14 @@ def demonstrated(
     ]
 
 
+def _palm(approach: FloatArray, x_hint: FloatArray) -> FloatArray:
+    """The palm rotation (3, 3) looking along ``approach`` with +x the part of ``x_hint`` across it (world)."""
+    z = approach / float(np.linalg.norm(approach))
+    x = x_hint - float(x_hint @ z) * z
+    x /= float(np.linalg.norm(x))
+    return np.stack([x, np.cross(z, x), z], axis=1)
+
+
 BAR_ELONGATION = 3.0
 """A mounted part at least three times as long as it is wide (its posts included) is a bar the fingers close across,
 whatever its profile: round, square or D-shaped."""
@@ -335,9 +343,7 @@ def find_bars(model: ObjectModel, space: SearchSpace) -> list[Bar]:
     elif model.mount is not None and np.count_nonzero(~model.mount) >= 3:
         part = model.points[~model.mount]
         axis = np.linalg.svd(part - part.mean(axis=0), full_matrices=False)[2][0]
-        depth = approach - float(approach @ axis) * axis
-        depth /= max(float(np.linalg.norm(depth)), 1e-9)
-        frame = np.stack([axis, np.cross(depth, axis), depth])
+        frame = _palm(approach - float(approach @ axis) * axis, axis).T  # rows: along, across, depth
         low, high = np.percentile(part @ frame.T, (2, 98), axis=0)
         half, width = 0.5 * (high - low)[:2]
         mid = np.array([0.5 * (low[0] + high[0]), 0.5 * (low[1] + high[1]), low[2] + width]) @ frame
@@ -366,18 +372,24 @@ def along_the_bar(
     return proposals
 
 
-def pinch(model: ObjectModel, _space: SearchSpace, _params: PlannerParams, _rng: np.random.Generator) -> list[Proposal]:
+def pinch(model: ObjectModel, space: SearchSpace, params: PlannerParams, _rng: np.random.Generator) -> list[Proposal]:
     """On a mounted part: the demonstrated palm held back ``TIP_DISTANCES_M`` from the pivot, rolled ``ROLLS_RAD``,
     at ``TIP_SPREADS_RAD``, closed where it is: fingers curled round a bar reach 45 mm or more in front of the palm,
-    so on a bar 20-50 mm before its plate they meet the plate; the open fingertips close 80-100 mm in front of it."""
+    so on a bar 20-50 mm before its plate they meet the plate; the open fingertips close 80-100 mm in front of it.
+    On a part whose exact cylinder lies along the approach within the wrist's range (a cap), also the palm on its
+    axis looking along it, that far before its top: from the axis the fingertips press the round side evenly, from
+    the demonstrated palm, tilted and off the axis, they meet it at different heights and turn it."""
     if model.mount is None:
         return []
-    return [
-        Proposal("pinch", _at(spread, d, roll), 0.0)
-        for roll in ROLLS_RAD
-        for d in TIP_DISTANCES_M
-        for spread in TIP_SPREADS_RAD
-    ]
+    states = [_at(spread, d, roll) for roll in ROLLS_RAD for d in TIP_DISTANCES_M for spread in TIP_SPREADS_RAD]
+    cap = model.cylinder
+    axis = np.zeros(3) if cap is None else Rotation.from_quat(cap.quat_xyzw).apply([0.0, 0.0, 1.0])
+    along = float(axis @ space.seed_rot[:, 2])
+    if cap is not None and abs(along) >= math.cos(params.angle_limit_rad):
+        rot = _palm(axis if along > 0.0 else -axis, space.seed_rot[:, 0])
+        top = np.asarray(cap.position, dtype=np.float64) - rot[:, 2] * float(cap.size[1])
+        states += [space.state(rot, top - rot[:, 2] * d, a) for d in TIP_DISTANCES_M for a in TIP_SPREADS_RAD]
+    return [Proposal("pinch", s, 0.0) for s in states if space.inside(s)]
 
 
 def square_pinch(
@@ -391,11 +403,9 @@ def square_pinch(
     palm ``TIP_DISTANCES_M`` from the bar."""
     proposals = []
     for bar in find_bars(model, space):
-        approach = space.seed_rot[:, 2]
-        square = approach - float(approach @ bar.axis) * bar.axis
-        z = square / float(np.linalg.norm(square))
         x = bar.axis if float(bar.axis @ space.seed_rot[:, 0]) >= 0.0 else -bar.axis
-        rot = np.stack([x, np.cross(z, x), z], axis=1)
+        rot = _palm(space.seed_rot[:, 2] - float(space.seed_rot[:, 2] @ x) * x, x)
+        z = rot[:, 2]
         half, radius = bar.half_length, bar.half_width
         through = bar.centre + float(np.clip((space.seed_pos - bar.centre) @ x, -half, half)) * x
         states = [space.state(rot, through - z * barrett.tip_depth(radius), TIP_SPREADS_RAD[0])]

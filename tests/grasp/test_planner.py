@@ -20,12 +20,16 @@ from tasks.grasp.planner import (
     ILLEGAL_ENERGY,
     NEIGHBOUR_C,
     NEIGHBOUR_D,
+    ROLLS_RAD,
+    TIP_DISTANCES_M,
+    TIP_SPREADS_RAD,
     BestList,
     PlannerParams,
     anneal,
     contact_energy,
     find_bars,
     ingber_from_uniforms,
+    pinch,
     search_space,
     square_pinch,
     state_energy,
@@ -185,3 +189,32 @@ def test_a_box_is_a_bar_along_either_edge_square_to_the_approach(box_points: Poi
         extent = box_points @ across
         assert abs(bar.half_width - 0.5 * float(extent.max() - extent.min())) < 0.003
     assert square_pinch(model, space, PlannerParams(), np.random.default_rng(0))
+
+
+def test_a_cap_is_pinched_from_its_axis_too() -> None:
+    """Beside the pinches from the demonstrated palm, a bottle cap is pinched from its axis: palms looking along the
+    cap's axis from a point on it, before its top, at every distance and fingertip spread; a bar across the approach
+    gets only the pinches from the demonstrated palm."""
+    case = family_case("bottle cap", np.random.default_rng(4))
+    model, _, _ = row_setup(case, 4, 0)
+    assert model.cylinder is not None
+    space = search_space(model, Rotation.from_quat(case.seed_quat).as_matrix(), case.seed_pos, PlannerParams())
+    axis = Rotation.from_quat(model.cylinder.quat_xyzw).apply([0.0, 0.0, 1.0])
+    centre = np.asarray(model.cylinder.position)
+    centred = []
+    for prop in pinch(model, space, PlannerParams(), np.random.default_rng(0)):
+        rot, pos = space.pose(prop.state)
+        off = pos - centre
+        if (
+            abs(float(rot[:, 2] @ axis)) > math.cos(math.radians(0.1))
+            and np.linalg.norm(off - (off @ axis) * axis) < 1e-6
+        ):
+            assert float((centre - pos) @ rot[:, 2]) > float(model.cylinder.size[1])  # before the top, looking at it
+            centred.append(prop)
+    assert len(centred) == len(TIP_DISTANCES_M) * len(TIP_SPREADS_RAD)
+    pull = family_case("round pull", np.random.default_rng(0))
+    model, _, _ = row_setup(pull, 0, 0)
+    assert model.cylinder is not None
+    space = search_space(model, Rotation.from_quat(pull.seed_quat).as_matrix(), pull.seed_pos, PlannerParams())
+    proposals = pinch(model, space, PlannerParams(), np.random.default_rng(0))
+    assert len(proposals) == len(ROLLS_RAD) * len(TIP_DISTANCES_M) * len(TIP_SPREADS_RAD)
