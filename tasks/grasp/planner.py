@@ -383,12 +383,13 @@ def pinch(model: ObjectModel, space: SearchSpace, params: PlannerParams, _rng: n
         return []
     states = [_at(spread, d, roll) for roll in ROLLS_RAD for d in TIP_DISTANCES_M for spread in TIP_SPREADS_RAD]
     cap = model.cylinder
-    axis = np.zeros(3) if cap is None else Rotation.from_quat(cap.quat_xyzw).apply([0.0, 0.0, 1.0])
-    along = float(axis @ space.seed_rot[:, 2])
-    if cap is not None and abs(along) >= math.cos(params.angle_limit_rad):
-        rot = _palm(axis if along > 0.0 else -axis, space.seed_rot[:, 0])
-        top = np.asarray(cap.position, dtype=np.float64) - rot[:, 2] * float(cap.size[1])
-        states += [space.state(rot, top - rot[:, 2] * d, a) for d in TIP_DISTANCES_M for a in TIP_SPREADS_RAD]
+    if cap is not None:
+        axis = Rotation.from_quat(cap.quat_xyzw).apply([0.0, 0.0, 1.0])
+        along = float(axis @ space.seed_rot[:, 2])
+        if abs(along) >= math.cos(params.angle_limit_rad):
+            rot = _palm(axis if along > 0.0 else -axis, space.seed_rot[:, 0])
+            top = np.asarray(cap.position, dtype=np.float64) - rot[:, 2] * float(cap.size[1])
+            states += [space.state(rot, top - rot[:, 2] * d, a) for d in TIP_DISTANCES_M for a in TIP_SPREADS_RAD]
     return [Proposal("pinch", s, 0.0) for s in states if space.inside(s)]
 
 
