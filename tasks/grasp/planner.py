@@ -382,13 +382,12 @@ def pinch(model: ObjectModel, space: SearchSpace, params: PlannerParams, _rng: n
     if model.mount is None:
         return []
     states = [_at(spread, d, roll) for roll in ROLLS_RAD for d in TIP_DISTANCES_M for spread in TIP_SPREADS_RAD]
-    cap = model.cylinder
-    if cap is not None:
-        axis = Rotation.from_quat(cap.quat_xyzw).apply([0.0, 0.0, 1.0])
-        along = float(axis @ space.seed_rot[:, 2])
+    if model.cylinder is not None:
+        (cap,) = _shape_bars(model.cylinder, space.seed_rot[:, 2])
+        along = float(cap.axis @ space.seed_rot[:, 2])
         if abs(along) >= math.cos(params.angle_limit_rad):
-            rot = _palm(axis if along > 0.0 else -axis, space.seed_rot[:, 0])
-            top = np.asarray(cap.position, dtype=np.float64) - rot[:, 2] * float(cap.size[1])
+            rot = _palm(cap.axis if along > 0.0 else -cap.axis, space.seed_rot[:, 0])
+            top = cap.centre - rot[:, 2] * cap.half_length
             states += [space.state(rot, top - rot[:, 2] * d, a) for d in TIP_DISTANCES_M for a in TIP_SPREADS_RAD]
     return [Proposal("pinch", s, 0.0) for s in states if space.inside(s)]
 
