@@ -8,9 +8,10 @@ across it) that faces the hand (``MAX_TILT_RAD``), is wider than the hand (``MIN
 (``MIN_WIDTH_M``) and lies at least ``MIN_DEPTH_M`` behind the surface nearest the palm along the approach (the part
 stands in front of it). A box face or a cylinder the palm meets first is never a mount. World frame, metres.
 
-A cap the palm looks down on is the solid the palm meets first, as far as its sides keep one radius; the neck and body
-it sits on (none of them a plane facing the hand) are its mount: counted in the free body, a neck lets fingers closing
-on it hold in the planner's check while on the bottle only the cap turns.
+A cap the palm looks down on is the solid the palm meets first, as far as its sides keep one radius; all beyond it is
+its mount: a bottle's neck and body (none of them a plane facing the hand; counted in the free body, a neck lets
+fingers closing on it hold in the planner's check while on the bottle only the cap turns), or a knob's stem and the
+plate it stands on.
 
 The top face is the plane most of the points nearest the palm lie on (``_ransac_plane``); the side is walked down its
 axis on the points as scanned (voxels average a step's two sides) in slabs while it keeps the rim's radius (``_round``).

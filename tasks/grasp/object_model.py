@@ -262,10 +262,10 @@ def build_object_model(
 ) -> ObjectModel:
     """Object model for planning from (n, 3) world points (m): downsampled, normals (oriented away from
     ``viewpoint``, a place outside the object, when given), convex parts or primitive. With ``approach`` too (a
-    unit vector, world: the demonstrated palm's +z), the mount the part stands on is looked for
-    (``tasks.grasp.mount``) and, when found, kept apart (``ObjectModel.mount``); when none is, a cap the palm looks
-    down on (``mount.find_cap``, on the points as given) is the part, one exact piece (``ObjectModel.cylinder``),
-    and what it sits on the mount. Without a mount and with
+    unit vector, world: the demonstrated palm's +z), a cap the palm looks down on (``mount.find_cap``, on the
+    points as given: a bottle's cap, a knob) is the part, one exact piece (``ObjectModel.cylinder``), and all
+    beyond it (a neck and body, a stem and plate) the mount; else the mount the part stands on is looked for
+    (``mount.find_mount``) and, when found, kept apart (``ObjectModel.mount``). Without a mount and with
     ``fit``, a box or cylinder whose surface explains the points (``tasks.grasp.primitive_fit``: a carton, a
     bottle, a can) becomes the model's ``primitive`` instead of convex pieces, as GraspIt plans on shape primitives
     (Miller et al. 2003): the pieces' edges and seams fall differently with each k-means draw, and a fingertip that
@@ -277,12 +277,11 @@ def build_object_model(
         raise GraspError(msg)
     nrm = estimate_normals(pts, viewpoint=viewpoint)
     if approach is not None and viewpoint is not None:
+        cap = find_cap(scan, viewpoint, approach)
+        on_cap = np.zeros(len(pts), dtype=bool) if cap is None else within(cap, pts, CAP_MARGIN_M)
+        if MIN_POINTS <= int(on_cap.sum()) < len(pts):  # a cap, and something beyond it
+            return mounted_model(pts, nrm, ~on_cap, rng, cylinder=cap)
         mount = find_mount(pts, viewpoint, approach)
-        if not mount.any():
-            cap = find_cap(scan, viewpoint, approach)
-            on_cap = np.zeros(len(pts), dtype=bool) if cap is None else within(cap, pts, CAP_MARGIN_M)
-            if MIN_POINTS <= int(on_cap.sum()) < len(pts):  # a cap, and something beyond it
-                return mounted_model(pts, nrm, ~on_cap, rng, cylinder=cap)
         if mount.any() and int((~mount).sum()) >= MIN_POINTS:
             return mounted_model(pts, nrm, mount, rng, fit=fit)
     center, radius = _centre_and_radius(pts)

@@ -1,6 +1,6 @@
 """The cap a palm looks down on (``mount.find_cap``): the solid the palm meets first as far as its side keeps one
-radius, its neck and body the mount; a box, a can and a lone cylinder have none. On the bottle scene a cap planned as
-the part holds the cap, not the neck below it."""
+radius, its neck and body the mount (a knob's stem and plate too); a box, a can and a lone cylinder have none. On the
+bottle scene a cap planned as the part holds the cap, not the neck below it."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from tasks.arrays import Points
-from tasks.grasp.mount import find_cap
+from tasks.grasp.mount import find_cap, find_mount
 from tasks.grasp.object_model import build_object_model
 from tasks.grasp.primitive_fit import within
 from tests.grasp.bench_object import plan_bench_scene
@@ -103,6 +103,30 @@ def test_bottle_model_is_its_cap_on_a_mount() -> None:
     part = model.points[~model.mount]
     assert float(part[:, 2].min()) > TOP[2] - CAP_HEIGHT_M - 0.004
     assert float(model.points[model.mount][:, 2].max()) < TOP[2] - CAP_HEIGHT_M + 0.004
+
+
+def test_knob_on_a_plate_is_a_cap_on_its_stem() -> None:
+    """A knob 44 mm across and 18 mm tall on a stem 12 mm across and 20 mm long, in front of a plate 120 mm square,
+    seen from 80 mm: the plate is a mount, and the knob a cap on its stem as a bottle's cap is on its neck. The
+    model's free body is the knob's cylinder; its stem and the plate are the mount."""
+    rng = np.random.default_rng(6)
+    radius, height, stem = 0.022, 0.018, 0.020
+    clouds = [
+        sample_cylinder_surface(radius, height / 2, 2500, rng)[0] + TOP - [0.0, 0.0, height / 2],
+        sample_cylinder_surface(0.006, stem / 2, 600, rng)[0] + TOP - [0.0, 0.0, height + stem / 2],
+        sample_box_surface(np.array([0.06, 0.06, 0.005]), 6000, rng)[0] + TOP - [0.0, 0.0, height + stem + 0.005],
+    ]
+    points = np.concatenate(clouds)
+    down = np.array([0.0, 0.0, -1.0])
+    palm = TOP + np.array([0.0, 0.0, 0.08])
+    assert find_mount(points, palm, down).any()
+    model = build_object_model(points, np.random.default_rng(0), viewpoint=palm, approach=down)
+    assert model.cylinder is not None and model.cylinder.size[0] == pytest.approx(radius, abs=0.0005)
+    assert 2.0 * model.cylinder.size[1] == pytest.approx(height, abs=0.002)
+    assert model.mount is not None
+    assert len(model.parts) - model.mount_parts == 1
+    assert float(model.points[~model.mount][:, 2].min()) > TOP[2] - height - 0.004
+    assert float(model.points[model.mount][:, 2].min()) < TOP[2] - height - stem  # the plate is the mount
 
 
 @pytest.mark.slow
