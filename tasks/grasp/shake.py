@@ -201,9 +201,6 @@ def _squeezed_contacts(client: int, hand: int, obj: int, start: tuple[object, ob
 
 
 CHECK_TILT_RAD = math.radians(30.0)
-CHECK_TILTS = 3
-"""The check tilts gravity towards three sides 120° apart: the fewest that load every horizontal direction (each
-within 60° of one), as a hand carrying the part may lean to any side."""
 CHECK_PEAK_MS2 = 6.5
 CHECK_FREQUENCY_HZ = 3.0
 CHECK_TURN_RAD = math.radians(7.5)
@@ -214,8 +211,8 @@ turn amplitude (rad) and frequency (Hz), cycles of each motion (whole cycles: A 
 began)."""
 
 
-CHECK_LENGTH_S = (1 + CHECK_TILTS) * (0.5 + CHECK_CYCLES * (3 / CHECK_FREQUENCY_HZ + 1 / CHECK_TURN_HZ))
-"""Simulated length of ``hold_check`` (s): four gravity phases, each 0.5 s settling then the four motions (8 s)."""
+CHECK_LENGTH_S = 3 * (0.5 + CHECK_CYCLES * (3 / CHECK_FREQUENCY_HZ + 1 / CHECK_TURN_HZ))
+"""Simulated length of ``hold_check`` (s): three gravity phases, each 0.5 s settling then the four motions (6 s)."""
 CHECK_SHIFT_M = 0.005
 CHECK_TURN_TOL_RAD = math.radians(5.0)
 """``hold_check`` fails a grasp whose part moved 5 mm or turned 5° in the hand: half the slip a longer, harsher
@@ -224,24 +221,21 @@ shake allows (10 mm, 10°), since slip that starts in a short check goes on in a
 
 def hold_check(palm_quat_xyzw: FloatArray) -> ShakeParams:
     """The planner's hold check for a grasp whose palm has orientation ``palm_quat_xyzw`` (world [x, y, z, w]):
-    gravity world down, then tilted 30° towards three sides 120° apart (``CHECK_TILTS``), the first the end of the
-    palm's x axis (the axis of a bar the fingers close round: a lever slides along it) laid horizontal, or of its
-    y axis when x is near vertical; in each phase translations along world x, y and z with 6.5 m/s² peaks at 3 Hz
-    and a turn of the palm of 7.5° about the world diagonal at 2 Hz, one cycle each (8 s in all), within 5 mm and
-    5°. Run on the planner's own object model. The tilts and the palm turn load a fingertip grasp along, across
-    and about the bar, the directions it slips in, which world gravity and translations alone do not."""
+    gravity world down, then tilted 30° towards either end of the palm's x axis (the axis of a bar the fingers
+    close round: a lever slides along it) laid horizontal, or of its y axis when x is near vertical; in each
+    phase translations along world x, y and z with 6.5 m/s² peaks at 3 Hz and a turn of the palm of 7.5° about
+    the world diagonal at 2 Hz, one cycle each (6 s in all), within 5 mm and 5°. Run on the planner's own
+    object model. The tilts and the palm turn load a fingertip grasp along and about the bar, the directions it
+    slips in, which world gravity and translations alone do not."""
     rot = Rotation.from_quat(palm_quat_xyzw).as_matrix()
     down = np.array([0.0, 0.0, -1.0])
     side = rot[:, 0] - float(rot[:, 0] @ down) * down
     if float(np.linalg.norm(side)) < 0.3:
         side = rot[:, 1] - float(rot[:, 1] @ down) * down
     side = side / float(np.linalg.norm(side))
-    across = np.cross(down, side)
     gravity = [(0.0, 0.0, -9.81)]
-    for k in range(CHECK_TILTS):
-        azimuth = 2.0 * math.pi * k / CHECK_TILTS
-        towards = math.cos(azimuth) * side + math.sin(azimuth) * across
-        g = 9.81 * (math.cos(CHECK_TILT_RAD) * down + math.sin(CHECK_TILT_RAD) * towards)
+    for sign in (1.0, -1.0):
+        g = 9.81 * (math.cos(CHECK_TILT_RAD) * down + sign * math.sin(CHECK_TILT_RAD) * side)
         gravity.append((float(g[0]), float(g[1]), float(g[2])))
     amplitude = CHECK_PEAK_MS2 / (2.0 * math.pi * CHECK_FREQUENCY_HZ) ** 2
     axes = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
