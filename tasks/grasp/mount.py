@@ -180,19 +180,22 @@ def find_cap(scan: Points, palm_position: Vector3, approach: Vector3) -> Primiti
     azimuth = np.arctan2(rel @ np.cross(axis, u), rel @ u)
     sector = np.floor((azimuth + math.pi) / (2.0 * math.pi) * SECTORS).astype(np.int64) % SECTORS
     height = 0.0
+    side = [np.zeros(0)]  # the side's points' distances from the axis
     for start in np.arange(TOP_M, MAX_HEIGHT_M + SLAB_M, SLAB_M):
         slab = (along > start) & (along <= start + SLAB_M) & (radial <= rim + BESIDE_M)
         if not _round(radial[slab], sector[slab], rim):
             break
         height = float(start + SLAB_M)
+        side.append(radial[slab][np.abs(radial[slab] - rim) <= STEP_M])
     if not MIN_HEIGHT_M <= height < MAX_HEIGHT_M:
         return None  # too short, or a side that goes on: a can, a box's corner, not a cap
     if not np.any(along > height + SLAB_M):
         return None  # nothing beyond the cap: the object is the cap alone
     middle = centre + axis * height / 2.0
     quat = Rotation.align_vectors(axis[None, :], np.array([[0.0, 0.0, 1.0]]))[0].as_quat()
+    radius = float(np.median(np.concatenate(side)))  # unbiased by noise, where the top's outermost point is not
     return PrimitiveShape(
-        "cylinder", (rim, height / 2.0, 0.0), (middle[0], middle[1], middle[2]), (quat[0], quat[1], quat[2], quat[3])
+        "cylinder", (radius, height / 2.0, 0.0), (middle[0], middle[1], middle[2]), (quat[0], quat[1], quat[2], quat[3])
     )
 
 

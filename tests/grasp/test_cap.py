@@ -105,22 +105,27 @@ def test_bottle_model_is_its_cap_on_a_mount() -> None:
     assert float(model.points[model.mount][:, 2].max()) < TOP[2] - CAP_HEIGHT_M + 0.004
 
 
-def test_knob_on_a_plate_is_a_cap_on_its_stem() -> None:
-    """A knob 44 mm across and 18 mm tall on a stem 12 mm across and 20 mm long, in front of a plate 120 mm square,
-    seen from 80 mm: the plate is a mount, and the knob a cap on its stem as a bottle's cap is on its neck. The
-    model's free body is the knob's cylinder; its stem and the plate are the mount."""
+@pytest.mark.parametrize(
+    ("radius", "height", "tilt_deg", "noise_m"), [(0.022, 0.018, 0.0, 0.0), (0.016, 0.026, 10.0, 0.0003)]
+)
+def test_knob_on_a_plate_is_a_cap_on_its_stem(radius: float, height: float, tilt_deg: float, noise_m: float) -> None:
+    """A knob (44 mm across and 18 mm tall; 32 mm and 26 mm, seen 10° off its axis through 0.3 mm of noise) on a
+    stem 12 mm across and 20 mm long, in front of a plate 120 mm square, seen from 80 mm: the plate is a mount, and
+    the knob a cap on its stem as a bottle's cap is on its neck. The model's free body is the knob's cylinder; its
+    stem and the plate are the mount."""
     rng = np.random.default_rng(6)
-    radius, height, stem = 0.022, 0.018, 0.020
+    stem = 0.020
     clouds = [
         sample_cylinder_surface(radius, height / 2, 2500, rng)[0] + TOP - [0.0, 0.0, height / 2],
         sample_cylinder_surface(0.006, stem / 2, 600, rng)[0] + TOP - [0.0, 0.0, height + stem / 2],
         sample_box_surface(np.array([0.06, 0.06, 0.005]), 6000, rng)[0] + TOP - [0.0, 0.0, height + stem + 0.005],
     ]
     points = np.concatenate(clouds)
-    down = np.array([0.0, 0.0, -1.0])
-    palm = TOP + np.array([0.0, 0.0, 0.08])
-    assert find_mount(points, palm, down).any()
-    model = build_object_model(points, np.random.default_rng(0), viewpoint=palm, approach=down)
+    points += rng.normal(scale=noise_m, size=points.shape) if noise_m else 0.0
+    approach = Rotation.from_euler("x", tilt_deg, degrees=True).apply([0.0, 0.0, -1.0])
+    palm = TOP - 0.08 * approach
+    assert find_mount(points, palm, approach).any()
+    model = build_object_model(points, np.random.default_rng(0), viewpoint=palm, approach=approach)
     assert model.cylinder is not None and model.cylinder.size[0] == pytest.approx(radius, abs=0.0005)
     assert 2.0 * model.cylinder.size[1] == pytest.approx(height, abs=0.002)
     assert model.mount is not None
