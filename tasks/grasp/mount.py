@@ -180,13 +180,13 @@ def find_cap(scan: Points, palm_position: Vector3, approach: Vector3) -> Primiti
     azimuth = np.arctan2(rel @ np.cross(axis, u), rel @ u)
     sector = np.floor((azimuth + math.pi) / (2.0 * math.pi) * SECTORS).astype(np.int64) % SECTORS
     height = 0.0
-    side = [np.zeros(0)]  # the side's points' distances from the axis
+    side: list[FloatArray] = []  # each round slab's distances from the axis of its points on the side
     for start in np.arange(TOP_M, MAX_HEIGHT_M + SLAB_M, SLAB_M):
         slab = (along > start) & (along <= start + SLAB_M) & (radial <= rim + BESIDE_M)
         if not _round(radial[slab], sector[slab], rim):
             break
         height = float(start + SLAB_M)
-        side.append(radial[slab][np.abs(radial[slab] - rim) <= STEP_M])
+        side.append(radial[slab][np.abs(radial[slab] - rim) <= STEP_M])  # a round slab has some (``_round``)
     if not MIN_HEIGHT_M <= height < MAX_HEIGHT_M:
         return None  # too short, or a side that goes on: a can, a box's corner, not a cap
     if not np.any(along > height + SLAB_M):
