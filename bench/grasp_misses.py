@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import functools
 import math
 import sys
 from collections import Counter
@@ -44,6 +45,9 @@ from tests.grasp.cases.bench import row_setup, seed_cases
 
 CLASSES = ("no firm grasp", "model", "program", "exact shapes only")
 
+cases = functools.cache(seed_cases)
+"""A seed's objects, drawn once per run."""
+
 
 def mark(result: ShakeResult) -> str:
     """``H`` or ``-``, the largest shift (mm) and turn (degrees)."""
@@ -54,7 +58,7 @@ def mark(result: ShakeResult) -> str:
 def diagnose(seed: int, index: int, cycles: float) -> tuple[str, str, bool | None] | None:
     """The line and class of one object and whether the check drops its plan on the prism (None without a bar or
     cap), or None when the benchmark holds its plan."""
-    case = seed_cases(seed)[index][1]
+    case = cases(seed)[index][1]
     model, truth, program = row_setup(case, seed, index)
     prm = PlannerParams()
     ranked = ranked_grasps(model, case.seed_pos, case.seed_quat, np.random.default_rng(seed), prm)
@@ -98,10 +102,11 @@ def main() -> None:
     parser.add_argument("--rows", nargs="*", default=None, help="SEED:ROW objects instead of whole seeds")
     parser.add_argument("--cycles", type=float, default=3.0, help="cycles of each motion in the longer check")
     args = parser.parse_args()
-    if args.rows:
-        rows = [tuple(int(p) for p in r.split(":")) for r in args.rows]
-    else:
-        rows = [(s, i) for s in args.seeds for i in range(len(seed_cases(s)))]
+    try:
+        rows = [(int(r.split(":")[0]), int(r.split(":")[1])) for r in args.rows or ()]
+    except (ValueError, IndexError):
+        parser.error(f"--rows takes SEED:ROW, got {' '.join(args.rows)}")
+    rows = rows or [(s, i) for s in args.seeds for i in range(len(cases(s)))]
     if held := sorted({s for s, _ in rows} & set(HELD_OUT_SEEDS)):
         parser.error(f"held-out seeds {held} are only reported by bench/grasp.py, not diagnosed")
     counts: Counter[str] = Counter()
@@ -117,7 +122,7 @@ def main() -> None:
             prism[kind, True] += prism_drops
         print(line, flush=True)
         counts[kind] += 1
-        kinds[kind, seed_cases(seed)[index][1].name.split()[0]] += 1
+        kinds[kind, cases(seed)[index][1].name.split()[0]] += 1
     print(f"\n== {sum(counts.values())} dropped plans of {len(rows)} objects")
     for kind in CLASSES:
         per = ", ".join(f"{k} {n}" for (c, k), n in kinds.most_common() if c == kind)
