@@ -37,9 +37,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from bench.grasp import DEVELOPMENT_SEED, HELD_OUT_SEEDS, _seed_range
-from tasks.grasp.api import choose, firm, ranked_grasps
+from tasks.grasp.api import firm, plan_on_model
 from tasks.grasp.execution import grasp_from_candidate
-from tasks.grasp.planner import PlannerParams
 from tasks.grasp.shake import ShakeResult, hold_check, shake_test
 from tests.grasp.cases.bench import row_setup, seed_cases
 
@@ -60,9 +59,7 @@ def diagnose(seed: int, index: int, cycles: float) -> tuple[str, str, bool | Non
     cap), or None when the benchmark holds its plan."""
     case = cases(seed)[index][1]
     model, truth, program = row_setup(case, seed, index)
-    prm = PlannerParams()
-    ranked = ranked_grasps(model, case.seed_pos, case.seed_quat, np.random.default_rng(seed), prm)
-    plan = choose(model, ranked, prm)
+    plan = plan_on_model(model, case.seed_pos, case.seed_quat, np.random.default_rng(seed))
     grasp = grasp_from_candidate(plan)
     bench_truth = shake_test(truth, grasp, program)
     if bench_truth.holds:
