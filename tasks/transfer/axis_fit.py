@@ -6,7 +6,8 @@ rigid point-to-plane fit of that neighbourhood alone, started from the stretched
 only when its normals pin the axis across itself (their scatter across the axis has both eigenvalues at least
 ``MIN_LATERAL``: two faces meeting at a hinge, a lever's sides), and when its fit pairs enough points; else the
 whole model's fit places the axis. Each placement comes with its spread (``stretch.line_spread``, from the
-model's plane normals: ``face_normals``), widened to cover how far the neighbourhood moved the axis from the whole
+model's plane normals: ``face_normals``; a neighbourhood's at least how far its fit moves with each region of its
+pairs left out, ``block_jackknife``), widened to cover how far the neighbourhood moved the axis from the whole
 model's placement when the two fits contradict each other (``AGREEMENT_SIGMAS``), and by the misfit of faces whose
 pairs lie off to one side on average, which the pairs' scatter does not show (``face_misfit``). The
 neighbourhood's fit starts from the whole model's, so before its own pairs it knows the axis as well as the whole
@@ -25,6 +26,7 @@ import numpy as np
 
 from schemas.descriptor import Primitive
 from tasks.arrays import FloatArray, Points, Vector3
+from tasks.transfer.block_jackknife import block_labels, dominating, jackknife
 from tasks.transfer.clouds import median_spacing
 from tasks.transfer.face_edge import EdgeUpdate, ModelEdge, edge_update, model_edges
 from tasks.transfer.face_normals import ModelNormals, model_normals
@@ -202,6 +204,15 @@ def fit_axis(
     )
     if spread.pairs < MIN_REGION_PAIRS:
         return AxisFit(whole, global_spread, local=False)
+    spread = with_jackknife(
+        spread,
+        fitted,
+        (region, normals),
+        (target, target_normals),
+        line=line,
+        dist_m=distances[-1],
+        point_weight=point_weight,
+    )
     whole_pos, whole_dir = whole.carry_line(pos, direction)
     local_pos, local_dir = fitted.carry_line(pos, direction)
     shift = point_line_distance(local_pos, whole_pos, whole_dir)
@@ -220,6 +231,46 @@ def fit_axis(
     if turn > AGREEMENT_SIGMAS * math.hypot(spread.dir_std_rad, global_spread.dir_std_rad):
         spread = replace(spread, dir_std_rad=max(spread.dir_std_rad, turn / AGREEMENT_SIGMAS))
     return AxisFit(fitted, spread, local=True, whole_shift_m=shift, whole_turn_rad=turn, fit_pos_std_m=own)
+
+
+def with_jackknife(
+    spread: FitSpread,
+    fitted: Stretched,
+    model: tuple[Points, Points],
+    scan: tuple[Points, Points],
+    *,
+    line: tuple[Vector3, Vector3],
+    dist_m: float,
+    point_weight: float,
+) -> FitSpread:
+    """``spread`` of the neighbourhood's rigid fit ``fitted`` of ``model`` (its points and normals, source frame)
+    onto ``scan`` (points and normals, target frame), made at least the spread of that fit refitted with each block
+    of the model's points left out (``block_jackknife``), in every direction across the carried line (``line``:
+    point and unit direction, source frame); ``dist_m`` and ``point_weight`` as the fit's last stage ran."""
+    if spread.pos_cov is None:
+        return spread
+    pos, direction = line
+    region, normals = model
+    target, target_normals = scan
+
+    def refit(keep: np.ndarray) -> tuple[Vector3, Vector3]:
+        out = stretch_icp(
+            region[keep],
+            target,
+            target_normals,
+            fitted,
+            dist_m,
+            source_normals=normals[keep],
+            free_stretch=False,
+            final_m=dist_m,
+            point_weight=point_weight,
+        )
+        return out.carry_line(pos, direction)
+
+    moved_dir = fitted.carry_line(pos, direction)[1]
+    jack_cov, jack_dir = jackknife(refit, block_labels(region), moved_dir)
+    cov = dominating(spread.pos_cov, jack_cov, moved_dir)
+    return replace(spread, pos_std_m=across_std(cov), pos_cov=cov, dir_std_rad=max(spread.dir_std_rad, jack_dir))
 
 
 def with_bias(axis: AxisFit) -> AxisFit:
