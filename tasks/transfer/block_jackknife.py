@@ -2,9 +2,9 @@
 
 A fit's sigma from its pairs' scatter (``stretch.line_spread``) counts ``stretch.CORRELATED_POINTS`` neighbouring
 pairs as one observation. Where the model and the object differ in shape by more than the noise (a lever drawn
-to other proportions than the stretch the whole body gives it, a rose of another size), whole regions of pairs err
-together: the fit balances them, and a denser scan shrinks that sigma as one over the square root of its pairs
-while the error stays. Refitting with each of ``BLOCKS`` spatial blocks of the neighbourhood left out shows how
+to other proportions than the stretch the whole body gives it), whole regions of pairs err together: the fit
+balances them, and a denser scan shrinks that sigma as one over the square root of its pairs while the error
+stays. Refitting with each of ``BLOCKS`` spatial blocks of the neighbourhood left out shows how
 far the placement moves with each region: the spread of those refits is the delete-a-group jackknife variance
 (Künsch 1989), which holds for pairs correlated within a block. A direction no block's pairs constrain does not
 move in a refit started at the fit, so the jackknife knows nothing there: the placement's covariance is the

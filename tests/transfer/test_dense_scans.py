@@ -1,6 +1,6 @@
 """A denser scan than the family benchmark's is no licence for a confident wrong axis: the transfer of a lever,
-whose model and object differ in shape where the scan cannot tell (its leaf's height), is refused or placed
-within the bound, and its sigma covers its error."""
+whose model the whole leaf's stretched fit leaves a few per cent off the object's proportions, is refused or
+placed within the bound, and its sigma covers its error."""
 
 from __future__ import annotations
 
