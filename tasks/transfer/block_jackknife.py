@@ -21,6 +21,7 @@ import numpy as np
 from sklearn.cluster import KMeans
 
 from tasks.arrays import FloatArray, Labels, Points, Vector3
+from tasks.fit.geometry import perpendicular_basis
 
 BLOCKS = 8
 """Blocks of a neighbourhood, k-means over its model points: each about one of its features (a lever's end, its
@@ -60,10 +61,7 @@ def dominating(a: FloatArray, b: FloatArray, direction: Vector3) -> FloatArray:
     """The covariance (3, 3) across unit ``direction`` that is ``a`` where ``a`` covers ``b`` and ``b`` where ``b``
     exceeds it: ``a`` whitened, its eigenvalues of ``b`` raised to at least 1, coloured back. ``a`` must be
     positive definite across ``direction``."""
-    helper = np.eye(3)[int(np.abs(direction).argmin())]
-    e1 = np.cross(direction, helper)
-    e1 /= np.linalg.norm(e1)
-    basis = np.stack([e1, np.cross(direction, e1)], axis=1)  # (3, 2)
+    basis = np.stack(perpendicular_basis(direction), axis=1)  # (3, 2)
     chol = np.linalg.cholesky(basis.T @ a @ basis)
     inv = np.linalg.inv(chol)
     values, vectors = np.linalg.eigh(inv @ (basis.T @ b @ basis) @ inv.T)
