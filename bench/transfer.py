@@ -23,6 +23,7 @@ the paper's plain-ICP transfer, the untransferred descriptor on B and the learne
     .venv/bin/python bench/transfer.py [--quick] [--pairs N] [--scene-pairs N] [--seed N]
     .venv/bin/python bench/transfer.py --simulate [--pairs N] [--seed N] [--scene NAME]
     .venv/bin/python bench/transfer.py --families [--pairs N] [--family F] [--dev-only | --held-out-only] [--points N]
+        [--occluded]
 """
 
 from __future__ import annotations
@@ -627,12 +628,20 @@ def print_calibration(rows: list[FamilyRow]) -> None:
 
 
 def run_families(
-    seeds: tuple[int, ...], title: str, families: tuple[str, ...], points: int | None = None
+    seeds: tuple[int, ...],
+    title: str,
+    families: tuple[str, ...],
+    points: int | None = None,
+    *,
+    occluded: bool = False,
 ) -> list[FamilyRow]:
     """Every family's pairs of ``seeds``: one printed row per pair, then the summary; ``points``: surface samples
-    of each full model instead of the family's default (``make_pair``)."""
+    of each full model instead of the family's default, ``occluded``: scans without what the object hides from
+    its views (``make_pair``)."""
     if points is not None:
         title = f"{title}, {points} points per model"
+    if occluded:
+        title = f"{title}, occluded scans"
     print(f"\n{title}: seeds {', '.join(map(str, seeds))}")
     print(
         f"{'family':10} {'seed':>5} {'stretch':>14} {'keep':>4} {'v':>1} {'tilt':>4} | {'ours deg':>8} {'mm':>6} "
@@ -641,7 +650,7 @@ def run_families(
     rows = []
     for seed in seeds:
         for family in families:
-            pair = make_pair(family, seed, points)
+            pair = make_pair(family, seed, points, occluded=occluded)
             t0 = time.process_time()
             row = run_family_pair(pair)
             rows.append(row)
@@ -678,6 +687,9 @@ def main() -> None:
     parser.add_argument(
         "--points", type=int, help="with --families: surface samples of each full model (another draw of each pair)"
     )
+    parser.add_argument(
+        "--occluded", action="store_true", help="with --families: scans leave out what the object hides from its views"
+    )
     args = parser.parse_args()
     if args.families:
         families = tuple(args.family or FAMILIES)
@@ -686,17 +698,17 @@ def main() -> None:
             extra = tuple(range(first, last + 1))
             if set(extra) & set(FAMILY_HELDOUT_SEEDS):
                 parser.error("--extra-seeds: the held-out seeds 1000-1019 are not development pairs")
-            run_families(extra, "further development pairs", families, args.points)
+            run_families(extra, "further development pairs", families, args.points, occluded=args.occluded)
             return
         count = 1 if args.quick else args.pairs
         dev, held_out = FAMILY_DEV_SEEDS[:count], FAMILY_HELDOUT_SEEDS[:count]
         if args.only is not None:
-            run_families((args.only,), "chosen pair", families, args.points)
+            run_families((args.only,), "chosen pair", families, args.points, occluded=args.occluded)
             return
         if not args.held_out_only:
-            run_families(dev, "development pairs", families, args.points)
+            run_families(dev, "development pairs", families, args.points, occluded=args.occluded)
         if not args.dev_only:
-            run_families(held_out, "held-out pairs", families, args.points)
+            run_families(held_out, "held-out pairs", families, args.points, occluded=args.occluded)
         return
     if args.simulate:
         run_simulation(args.pairs or (3 if args.quick else 10), args.seed, args.scene)

@@ -16,6 +16,10 @@ and a novel one: the same design stretched by 0.8-1.3 (one factor in half of the
 half; a bottle's radius and height), turned by any yaw and tilted by up to 20 degrees, scanned from one or two
 views in front of it keeping 40-80 % of its surface, with 1-2 mm noise. The novel object's true axis is its own
 geometric axis (its hinge edge, spindle, cap axis), carried into the scan's frame.
+
+A scan keeps the surface facing a view, whether or not another part of the object stands in front of it: a door
+leaf's far lever, a cabinet's front behind its door. ``make_pair(..., occluded=True)`` also drops what the object
+hides from every view (``visible``), as a depth camera's scan does: the same objects, pose, views and noise level.
 """
 
 from __future__ import annotations
@@ -24,6 +28,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+import open3d as o3d
 
 from tests.transfer.shapes import Part, box, cylinder_side, sample_parts
 
@@ -34,6 +39,17 @@ POINTS = {"cabinet": 12_000, "microwave": 12_000, "drawer": 12_000, "lever": 20_
 """Surface samples of a full model per family (a door leaf is 3 m^2 of which the lever is 0.3 %)."""
 GRAZING_COS = math.cos(math.radians(80.0))
 """A surface seen at more than 80 degrees from every view is not in the scan."""
+CAMERA_DIAGONALS = 2.0
+"""An occluded scan's camera stands two object diagonals from the object's centre along each view: the whole
+object fits a field of view under 30 degrees."""
+FLIP_RADII = 300.0
+"""Hidden point removal's spherical flip radius, in camera distances (Katz, Tal and Basri 2007): a third of it
+also hides the surface about a handle beyond the handle's shadow, three times it lets points 18 mm behind a door
+through."""
+OCCLUDER_SAMPLES = 5
+"""The surface that hides is sampled five times as densely as the scan: hidden point removal judges points, not
+surfaces, and lets points just behind a sparsely sampled surface through (a cabinet's front 18 mm behind its
+door)."""
 
 
 @dataclass(frozen=True)
@@ -74,6 +90,8 @@ class TransferPair:
     """(3, 3) the novel object's turn from its own frame into the scan's (before the ``shift``)."""
     shift: np.ndarray
     """(3,) metres: scan frame = rotation @ (stretch * object frame) + shift."""
+    occluded: bool = False
+    """The scan left out what the object hides from every view (``visible``)."""
 
 
 def _cylinder(radius: float, length: float, centre: np.ndarray, axis: int) -> list[Part]:
@@ -252,9 +270,25 @@ def view_directions(family: str, views: int, rng: np.random.Generator) -> np.nda
     return np.array(out)
 
 
-def make_pair(family: str, seed: int, points: int | None = None) -> TransferPair:
+def visible(points: np.ndarray, occluders: np.ndarray, directions: np.ndarray) -> np.ndarray:
+    """(n,) bool: the ``points`` (n, 3, object frame, metres) a camera along any of the unit ``directions``
+    (towards the camera) reaches before the object's surface, sampled by ``points`` and ``occluders`` (m, 3):
+    open3d's hidden point removal from a camera ``CAMERA_DIAGONALS`` away from the points' centre."""
+    centre = points.mean(axis=0)
+    distance = CAMERA_DIAGONALS * float(np.linalg.norm(points.max(axis=0) - points.min(axis=0)))
+    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.vstack([points, occluders])))
+    out = np.zeros(len(points), dtype=bool)
+    for direction in directions:
+        _, index = cloud.hidden_point_removal(centre + distance * direction, FLIP_RADII * distance)
+        index = np.asarray(index, dtype=np.intp)
+        out[index[index < len(points)]] = True
+    return out
+
+
+def make_pair(family: str, seed: int, points: int | None = None, *, occluded: bool = False) -> TransferPair:
     """Pair number ``seed`` of ``family`` (deterministic); ``points``: surface samples of each full model instead
-    of ``POINTS[family]`` (the random draws after the sampling then differ: another pair)."""
+    of ``POINTS[family]`` (the random draws after the sampling then differ: another pair); ``occluded``: the scan
+    also leaves out what the object hides from its views (the same objects, pose and views)."""
     rng = np.random.default_rng([FAMILIES.index(family), seed])
     dims = np.array([rng.uniform(lo, hi) for lo, hi in SIZES[family]])
     if family == "bottle":
@@ -283,11 +317,15 @@ def make_pair(family: str, seed: int, points: int | None = None) -> TransferPair
     shift = rng.uniform(-1.0, 1.0, size=3)
     keep = float(rng.uniform(0.4, 0.8))
     views = int(rng.integers(1, 3))
-    facing = (novel.normals @ view_directions(family, views, rng).T).max(axis=1)
+    directions = view_directions(family, views, rng)
+    facing = (novel.normals @ directions.T).max(axis=1)
     order = np.lexsort((rng.random(len(facing)), -facing))  # most facing first, ties in random order
     seen = np.zeros(len(facing), dtype=bool)
     seen[order[: int(keep * len(facing))]] = True
     seen &= facing > GRAZING_COS
+    if occluded:  # the hiding surface from a generator of its own: the pair's draws stay as they are
+        hiding_rng = np.random.default_rng([FAMILIES.index(family), seed, 1])
+        seen &= visible(novel.points, build(family, dims, stretch, OCCLUDER_SAMPLES * n, hiding_rng).points, directions)
     keep = float(seen.mean())
     noise = float(rng.uniform(1e-3, 2e-3))
     scan = novel.points[seen] @ rot.T + shift + rng.normal(scale=noise, size=(int(seen.sum()), 3))
@@ -305,4 +343,5 @@ def make_pair(family: str, seed: int, points: int | None = None) -> TransferPair
         noise,
         rot,
         shift,
+        occluded,
     )
