@@ -17,9 +17,12 @@ half; a bottle's radius and height), turned by any yaw and tilted by up to 20 de
 views in front of it keeping 40-80 % of its surface, with 1-2 mm noise. The novel object's true axis is its own
 geometric axis (its hinge edge, spindle, cap axis), carried into the scan's frame.
 
-A scan keeps the surface facing a view, whether or not another part of the object stands in front of it: a door
-leaf's far lever, a cabinet's front behind its door. ``make_pair(..., occluded=True)`` also drops what the object
-hides from every view (``visible``), as a depth camera's scan does: the same objects, pose, views and noise level.
+The objects are unions of boxes and cylinders sampled over every face, so a model holds the faces hidden inside
+the object (a cabinet's front behind its door, a leaf's face under a lever's rose), and a scan keeps the
+surface facing a view whether or not another part of the object stands in front of it (a door leaf's far lever).
+``make_pair(..., occluded=True)`` leaves out what the object hides (``visible``): the demonstrated model keeps what
+a camera sees from ``FULL_SCAN_VIEWS`` directions all round it, the novel object's scan what its own views see, as
+depth cameras do; the objects, pose, views and noise levels are those of the same pair without it.
 """
 
 from __future__ import annotations
@@ -46,6 +49,9 @@ FLIP_RADII = 300.0
 """Hidden point removal's spherical flip radius, in camera distances (Katz, Tal and Basri 2007): a third of it
 also hides the surface about a handle beyond the handle's shadow, three times it lets points 18 mm behind a door
 through."""
+FULL_SCAN_VIEWS = 32
+"""A demonstrated object's full scan: views from 32 directions spread evenly over the sphere (a Fibonacci
+lattice), about 40 degrees apart."""
 OCCLUDER_SAMPLES = 5
 """The surface that hides is sampled five times as densely as the scan: hidden point removal judges points, not
 surfaces, and lets points just behind a sparsely sampled surface through (a cabinet's front 18 mm behind its
@@ -285,20 +291,35 @@ def visible(points: np.ndarray, occluders: np.ndarray, directions: np.ndarray) -
     return out
 
 
+def sphere_directions(count: int) -> np.ndarray:
+    """(count, 3) unit directions spread evenly over the sphere (a Fibonacci lattice)."""
+    k = np.arange(count) + 0.5
+    z = 1.0 - 2.0 * k / count
+    phi = math.pi * (3.0 - math.sqrt(5.0)) * k
+    r = np.sqrt(1.0 - z * z)
+    return np.column_stack([r * np.cos(phi), r * np.sin(phi), z])
+
+
 def make_pair(family: str, seed: int, points: int | None = None, *, occluded: bool = False) -> TransferPair:
     """Pair number ``seed`` of ``family`` (deterministic); ``points``: surface samples of each full model instead
-    of ``POINTS[family]`` (the random draws after the sampling then differ: another pair); ``occluded``: the scan
-    also leaves out what the object hides from its views (the same objects, pose and views)."""
+    of ``POINTS[family]`` (the random draws after the sampling then differ: another pair); ``occluded``: the model
+    and the scan leave out what the object hides from their views (the same objects, pose and views)."""
     rng = np.random.default_rng([FAMILIES.index(family), seed])
     dims = np.array([rng.uniform(lo, hi) for lo, hi in SIZES[family]])
     if family == "bottle":
         dims[1] = dims[0]
     n = POINTS[family] if points is None else points
     source = build(family, dims, np.ones(3), n, rng)
+    outer = np.ones(len(source.points), dtype=bool)
+    if occluded:  # the hiding surface from generators of their own: the pair's draws stay as they are
+        hiding = build(
+            family, dims, np.ones(3), OCCLUDER_SAMPLES * n, np.random.default_rng([FAMILIES.index(family), seed, 2])
+        )
+        outer = visible(source.points, hiding.points, sphere_directions(FULL_SCAN_VIEWS))
     source = FamilyObject(
         source.family,
-        source.points + rng.normal(scale=SOURCE_NOISE_M, size=source.points.shape),
-        source.normals,
+        (source.points + rng.normal(scale=SOURCE_NOISE_M, size=source.points.shape))[outer],
+        source.normals[outer],
         source.axis_pos,
         source.axis_dir,
         source.kind,
@@ -323,7 +344,7 @@ def make_pair(family: str, seed: int, points: int | None = None, *, occluded: bo
     seen = np.zeros(len(facing), dtype=bool)
     seen[order[: int(keep * len(facing))]] = True
     seen &= facing > GRAZING_COS
-    if occluded:  # the hiding surface from a generator of its own: the pair's draws stay as they are
+    if occluded:
         hiding_rng = np.random.default_rng([FAMILIES.index(family), seed, 1])
         seen &= visible(novel.points, build(family, dims, stretch, OCCLUDER_SAMPLES * n, hiding_rng).points, directions)
     keep = float(seen.mean())
