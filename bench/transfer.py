@@ -636,8 +636,8 @@ def run_families(
     occluded: bool = False,
 ) -> list[FamilyRow]:
     """Every family's pairs of ``seeds``: one printed row per pair, then the summary; ``points``: surface samples
-    of each full model instead of the family's default, ``occluded``: scans without what the object hides from
-    its views (``make_pair``)."""
+    of each full model instead of the family's default, ``occluded``: models and scans without what the object
+    hides from their views (``make_pair``)."""
     if points is not None:
         title = f"{title}, {points} points per model"
     if occluded:
@@ -688,7 +688,9 @@ def main() -> None:
         "--points", type=int, help="with --families: surface samples of each full model (another draw of each pair)"
     )
     parser.add_argument(
-        "--occluded", action="store_true", help="with --families: scans leave out what the object hides from its views"
+        "--occluded",
+        action="store_true",
+        help="with --families: the model and the scan leave out what the object hides from their views",
     )
     args = parser.parse_args()
     if args.families:

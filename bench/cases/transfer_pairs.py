@@ -97,7 +97,7 @@ class TransferPair:
     shift: np.ndarray
     """(3,) metres: scan frame = rotation @ (stretch * object frame) + shift."""
     occluded: bool = False
-    """The scan left out what the object hides from every view (``visible``)."""
+    """The model and the scan left out what the object hides from their views (``visible``)."""
 
 
 def _cylinder(radius: float, length: float, centre: np.ndarray, axis: int) -> list[Part]:
