@@ -95,7 +95,7 @@ DOOR_DEPTH_M = 0.03
 def edge_face_normals(pair: TransferPair, normals: np.ndarray) -> tuple[int, int]:
     """Scan points on the door's edge face through the hinge, and how many of their ``normals`` ((m, 3) unit,
     unsigned, scan frame) lie within ``NORMAL_COS`` of its true normal."""
-    obj = (pair.target - pair.shift) @ pair.rotation / pair.stretch
+    obj = pair.scan_in_object_frame()
     hinge = pair.source.axis_pos
     behind = obj[:, 1] - hinge[1]
     on_face = (np.abs(obj[:, 0] - hinge[0]) < EDGE_FACE_M) & (behind > EDGE_FACE_M) & (behind < DOOR_DEPTH_M)

@@ -99,6 +99,11 @@ class TransferPair:
     occluded: bool = False
     """The model and the scan left out what the object hides from their views (``visible``)."""
 
+    def scan_in_object_frame(self) -> np.ndarray:
+        """(m, 3) the scan in the novel object's frame before its stretch, metres (the scan's noise included)."""
+        out: np.ndarray = (self.target - self.shift) @ self.rotation / self.stretch
+        return out
+
 
 def _cylinder(radius: float, length: float, centre: np.ndarray, axis: int) -> list[Part]:
     """A closed cylinder about coordinate ``axis`` (side and both caps)."""
@@ -291,6 +296,13 @@ def visible(points: np.ndarray, occluders: np.ndarray, directions: np.ndarray) -
     return out
 
 
+def hiding_surface(family: str, seed: int, dims: np.ndarray, stretch: np.ndarray, n: int, *, stream: int) -> np.ndarray:
+    """(``OCCLUDER_SAMPLES`` x n, 3) surface samples of the object (object frame, metres) that hide what lies behind
+    them, drawn from a generator of their own (``stream``), so the pair's own draws stay as they are."""
+    rng = np.random.default_rng([FAMILIES.index(family), seed, stream])
+    return build(family, dims, stretch, OCCLUDER_SAMPLES * n, rng).points
+
+
 def sphere_directions(count: int) -> np.ndarray:
     """(count, 3) unit directions spread evenly over the sphere (a Fibonacci lattice)."""
     k = np.arange(count) + 0.5
@@ -311,11 +323,9 @@ def make_pair(family: str, seed: int, points: int | None = None, *, occluded: bo
     n = POINTS[family] if points is None else points
     source = build(family, dims, np.ones(3), n, rng)
     outer = np.ones(len(source.points), dtype=bool)
-    if occluded:  # the hiding surface from generators of their own: the pair's draws stay as they are
-        hiding = build(
-            family, dims, np.ones(3), OCCLUDER_SAMPLES * n, np.random.default_rng([FAMILIES.index(family), seed, 2])
-        )
-        outer = visible(source.points, hiding.points, sphere_directions(FULL_SCAN_VIEWS))
+    if occluded:
+        hiding = hiding_surface(family, seed, dims, np.ones(3), n, stream=2)
+        outer = visible(source.points, hiding, sphere_directions(FULL_SCAN_VIEWS))
     source = FamilyObject(
         source.family,
         (source.points + rng.normal(scale=SOURCE_NOISE_M, size=source.points.shape))[outer],
@@ -345,8 +355,7 @@ def make_pair(family: str, seed: int, points: int | None = None, *, occluded: bo
     seen[order[: int(keep * len(facing))]] = True
     seen &= facing > GRAZING_COS
     if occluded:
-        hiding_rng = np.random.default_rng([FAMILIES.index(family), seed, 1])
-        seen &= visible(novel.points, build(family, dims, stretch, OCCLUDER_SAMPLES * n, hiding_rng).points, directions)
+        seen &= visible(novel.points, hiding_surface(family, seed, dims, stretch, n, stream=1), directions)
     keep = float(seen.mean())
     noise = float(rng.uniform(1e-3, 2e-3))
     scan = novel.points[seen] @ rot.T + shift + rng.normal(scale=noise, size=(int(seen.sum()), 3))

@@ -7,21 +7,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bench.cases.transfer_pairs import TransferPair, make_pair
-
-
-def object_frame(pair: TransferPair) -> np.ndarray:
-    """The pair's scan in the novel object's frame before its stretch (metres; 1-2 mm noise)."""
-    out: np.ndarray = (pair.target - pair.shift) @ pair.rotation / pair.stretch
-    return out
+from bench.cases.transfer_pairs import make_pair
 
 
 @pytest.mark.slow  # a door leaf's full model seen from 32 directions: about 15 s
 def test_the_far_lever_is_hidden_behind_the_leaf() -> None:
     plain, occluded = make_pair("lever", 0), make_pair("lever", 0, occluded=True)
     half = -plain.source.axis_pos[1]  # the spindle's point lies on the near face, y = -thickness / 2
-    far = [int((object_frame(p)[:, 1] > half + 0.01).sum()) for p in (plain, occluded)]
-    near = [int((np.abs(object_frame(p)[:, 1] + half) < 0.005).sum()) for p in (plain, occluded)]
+    far = [int((p.scan_in_object_frame()[:, 1] > half + 0.01).sum()) for p in (plain, occluded)]
+    near = [int((np.abs(p.scan_in_object_frame()[:, 1] + half) < 0.005).sum()) for p in (plain, occluded)]
     assert far[0] > 50  # the far lever's faces turned towards the camera, seen through the leaf
     assert far[1] == 0
     assert near[1] > 0.95 * near[0]
@@ -31,7 +25,10 @@ def test_the_cabinet_front_behind_its_door_is_hidden() -> None:
     plain, occluded = make_pair("cabinet", 1), make_pair("cabinet", 1, occluded=True)
     hinge = plain.source.axis_pos  # (-w / 2, the door's front, h / 2)
     body_front = -hinge[1] - 0.018  # the door is 18 mm thick
-    for frames in ((object_frame(plain), object_frame(occluded)), (plain.source.points, occluded.source.points)):
+    for frames in (
+        (plain.scan_in_object_frame(), occluded.scan_in_object_frame()),
+        (plain.source.points, occluded.source.points),
+    ):
         counts = []
         for pts in frames:
             # 0.1 m in from the door's edges: a view 80 degrees off sees 18 mm * tan(80 deg) behind them
