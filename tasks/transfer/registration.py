@@ -144,6 +144,8 @@ class FineTarget:
     """Median nearest-neighbour spacing of the target's points, metres."""
     tree: cKDTree
     """KD-tree of ``points``, built once for every start's refinement."""
+    fine_tree: cKDTree
+    """KD-tree of ``fine_points``, built once for every alignment's scoring."""
 
 
 def prepare_target(tgt: Points, params: RegistrationParams) -> FineTarget:
@@ -153,11 +155,22 @@ def prepare_target(tgt: Points, params: RegistrationParams) -> FineTarget:
     fine_voxel = max(params.fine_voxel_frac * span_t, spacing)
     threshold = max(1.5 * fine_voxel, 2.0 * spacing)
     tgt_fine = downsample(tgt, fine_voxel)
+    fine_points = cloud_points(tgt_fine)
     normals = surface_normals(tgt, spacing)
     mid_voxel = max(span_t / MID_VOXEL_DIVISOR, spacing)
     mid = downsample(tgt, mid_voxel)
     return FineTarget(
-        tgt, normals, tgt_fine, cloud_points(tgt_fine), mid, fine_voxel, mid_voxel, threshold, spacing, cKDTree(tgt)
+        tgt,
+        normals,
+        tgt_fine,
+        fine_points,
+        mid,
+        fine_voxel,
+        mid_voxel,
+        threshold,
+        spacing,
+        cKDTree(tgt),
+        cKDTree(fine_points),
     )
 
 
@@ -258,23 +271,26 @@ def score_fit(
     fine: FineTarget,
     params: RegistrationParams,
     sample_scale: float,
+    region_scale: float,
 ) -> Alignment:
     """``fitted`` (source onto target) scored on ``part`` against ``fine``: the functional part's fitness and RMSE,
-    its surface RMSE and normal agreement, and the ranking score from the whole models' two-way ``model_score``
-    (``explained_score``: the whole models' fit over the scanned surface, kept for the poor-fit judgement).
-    The used points are downsampled to the fine voxel at ``sample_scale`` (target over source size)."""
+    its surface RMSE and normal agreement, and the ranking score led by the whole models' fit over the scanned
+    surface ``explained_score`` (``model_score``: their two-way fit, kept for the report). The used points are
+    downsampled to the fine voxel at ``sample_scale`` (target over source size); the scan's functional region is
+    sized at ``region_scale`` (the same for every alignment ranked together)."""
     threshold = fine.threshold
-    score = model_score
+    score = explained_score
     used_fine = downsample(part.used, fine.fine_voxel / sample_scale)
     if part.focus is not None and part.crop_radius is not None:
         score = functional_score(
-            score,
+            explained_score,
             fitted,
             used_fine=used_fine,
-            tgt_fine=fine.fine,
             tgt_fine_pts=fine.fine_points,
+            tgt_fine_tree=fine.fine_tree,
             focus=part.focus,
             crop_radius=part.crop_radius,
+            region_scale=region_scale,
             threshold=threshold,
         )
     if part.grip is not None:
@@ -342,8 +358,8 @@ def register_models(
         for fit in whole_model_fits(src, fine.mid, start, fine.mid_voxel, mid_threshold)
     ]
     part = ScoredPart(src, used if foc is not None else src, foc, crop_radius, grip_pts, raw_sample, raw_normals)
-    for name, (whole_fit, model_score, explained) in whole:
-        fitted = refine_planar(
+    refined = [
+        refine_planar(
             refine_points,
             tgt,
             fine.normals,
@@ -353,6 +369,15 @@ def register_models(
             weights=refine_weights,
             tree=fine.tree,
         )
+        for _, (whole_fit, _, _) in whole
+    ]
+    # every alignment is asked to explain a scan region of one size: that of the scale whose whole model explains
+    # the scanned surface best
+    in_range = [
+        (fit[2], fitted.scale) for (_, fit), fitted in zip(whole, refined, strict=True) if lo <= fitted.scale <= hi
+    ]
+    region_scale = max(in_range)[1] if in_range else 1.0
+    for (name, (whole_fit, model_score, explained)), fitted in zip(whole, refined, strict=True):
         alignments.append(
             score_fit(
                 part,
@@ -363,6 +388,7 @@ def register_models(
                 fine=fine,
                 params=params,
                 sample_scale=whole_fit.scale,
+                region_scale=region_scale,
             )
         )
     order = ranked([a for a in alignments if lo <= a.transform.scale <= hi])

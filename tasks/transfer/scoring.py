@@ -1,8 +1,8 @@
 """Scoring and ranking of refined alignments, and the judgement of a poor registration.
 
-An alignment's ranking score combines the whole models' two-way fit, the functional part's fit both ways and
-the two-way match of the small balls around the grasped part (which tells a box's handle side from its mirror
-image). Lengths in metres, target frame unless named otherwise.
+An alignment's ranking score combines the whole models' fit over the scanned surface, the functional part's fit
+both ways where the scan saw it and the two-way match of the small balls around the grasped part (which tells a
+box's handle side from its mirror image). Lengths in metres, target frame unless named otherwise.
 """
 
 from __future__ import annotations
@@ -50,26 +50,36 @@ def scan_explained_score(source: O3dCloud, target: O3dCloud, fitted: Similarity,
 
 
 def functional_score(
-    model_score: float,
+    explained_score: float,
     fitted: Similarity,
     *,
     used_fine: O3dCloud,
-    tgt_fine: O3dCloud,
     tgt_fine_pts: Points,
+    tgt_fine_tree: cKDTree,
     focus: Points,
     crop_radius: float,
+    region_scale: float,
     threshold: float,
 ) -> float:
-    """Ranking score led by the functional part: ``model_score`` ** 1/3 times (the part's fit onto the target,
-    ** 0.75, times the fit of the target's region around the carried focus points back onto it, ** 0.25) ** 2/3.
-    ``crop_radius`` is in source metres."""
-    centres = fitted.apply_points(focus)
-    local = tgt_fine_pts[functional_mask(tgt_fine_pts, centres, crop_radius * fitted.scale)]
-    c_st, _ = fitness(used_fine, tgt_fine, fitted, threshold)
+    """Ranking score led by the functional part: the cube root of the product of ``explained_score`` (the whole
+    models' fit over the scanned surface), the part's fit onto the scan where the scan saw it (its points within
+    ``SEEN_REACH`` thresholds of a scanned point) and the fit of the scan's region around the carried focus points
+    back onto the part. Both directions of the part count only what the scan shows: its unseen side is no
+    evidence against an alignment. The scan's region has the radius ``crop_radius`` (source metres) times
+    ``region_scale`` for every alignment judged together, so a shrunken alignment is asked to explain as much of
+    the scan as a full-sized one is, not a region shrunk with it. Lengths in target metres unless named."""
+    part = fitted.apply_points(cloud_points(used_fine))
+    if len(part) == 0:
+        return 0.0
+    to_scan, _ = tgt_fine_tree.query(part, distance_upper_bound=SEEN_REACH * threshold)
+    seen = np.isfinite(to_scan)
+    c_st = float(np.mean(to_scan[seen] <= threshold)) if seen.any() else 0.0
+    local = tgt_fine_pts[functional_mask(tgt_fine_pts, fitted.apply_points(focus), crop_radius * region_scale)]
     c_ts = 0.0
     if local.shape[0] > 0:
-        c_ts, _ = fitness(to_cloud(local), used_fine, fitted.inverse(), threshold / fitted.scale)
-    return float(model_score ** (1.0 / 3.0) * (c_st**0.75 * c_ts**0.25) ** (2.0 / 3.0))
+        back, _ = cKDTree(part).query(local, distance_upper_bound=threshold)
+        c_ts = float(np.mean(np.isfinite(back)))
+    return float((explained_score * c_st * c_ts) ** (1.0 / 3.0))
 
 
 def grip_score(

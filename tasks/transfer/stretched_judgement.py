@@ -71,4 +71,5 @@ def stretched_alignment(
         fine=fine,
         params=params,
         sample_scale=fitted.scale,
+        region_scale=fitted.scale,
     )

@@ -10,9 +10,15 @@ import numpy as np
 import pytest
 
 from tasks.transfer.clouds import downsample, similarity_icp
-from tasks.transfer.registration import both_ways_icp, register_models
+from tasks.transfer.registration import both_ways_icp, functional_region, prepare_target, register_models
 from tasks.transfer.registration_types import Alignment, RegistrationParams
-from tasks.transfer.scoring import grip_score, poor_fit_warning, scan_explained_score, two_way_score
+from tasks.transfer.scoring import (
+    functional_score,
+    grip_score,
+    poor_fit_warning,
+    scan_explained_score,
+    two_way_score,
+)
 from tasks.transfer.similarity import Similarity
 from tasks.transfer.stretch import Stretched
 from tasks.transfer.stretched_judgement import stretched_alignment
@@ -89,6 +95,39 @@ def test_a_scan_of_part_of_an_object_is_explained_where_it_saw_it() -> None:
     assert scan_explained_score(src, tgt, truth, 1.5 * voxel) > 0.9
     shrunk = truth.compose(Similarity(0.5, np.eye(3), np.zeros(3)))
     assert scan_explained_score(downsample(cabinet.points, voxel / 0.55), tgt, shrunk, 1.5 * voxel) < 0.55
+
+
+def test_a_shrunken_alignment_is_asked_to_explain_as_much_of_the_scan() -> None:
+    """A one-sided view of 40 % of a cabinet: the true alignment's functional part, of which the scan shows the
+    front, scores well; one shrunk to 0.7 about the knob scores less, and less still when the scan's region is
+    sized at the common scale rather than shrunk with it (more of the scanned knob and door left unexplained)."""
+    cabinet = shapes.cabinet(RNG(3), n=9000)
+    truth = Similarity(1.1, shapes.random_rotation(RNG(4)), np.array([0.2, -0.1, 0.3]))
+    scan = _view_scan(cabinet, truth, np.array([0.3, -0.8, 0.5]), 0.4)
+    params = RegistrationParams()
+    fine = prepare_target(scan, params)
+    used_idx, crop = functional_region(cabinet.points, cabinet.focus, params, [])
+    assert crop is not None
+    knob = cabinet.focus[0]
+    shrunk = truth.compose(Similarity(0.7, np.eye(3), 0.3 * knob))
+
+    def score(fitted: Similarity, region_scale: float) -> float:
+        used_fine = downsample(cabinet.points[used_idx], fine.fine_voxel / fitted.scale)
+        return functional_score(
+            1.0,
+            fitted,
+            used_fine=used_fine,
+            tgt_fine_pts=fine.fine_points,
+            tgt_fine_tree=fine.fine_tree,
+            focus=cabinet.focus,
+            crop_radius=crop,
+            region_scale=region_scale,
+            threshold=fine.threshold,
+        )
+
+    assert score(truth, truth.scale) > 0.9
+    assert score(shrunk, truth.scale) < score(shrunk, shrunk.scale) - 0.05
+    assert score(shrunk, truth.scale) < 0.7
 
 
 def test_a_stretched_bottle_is_judged_on_its_stretched_fit() -> None:
