@@ -31,6 +31,20 @@ scan did not see (an object's unseen side is its thickness away); nearer ones th
 a surface by about a threshold, which the fit's own pairs reach."""
 
 
+def _seen_fit(points: Points, scan_tree: cKDTree, threshold: float) -> float | None:
+    """Of ``points`` within ``SEEN_REACH`` thresholds of a scanned point (``scan_tree``), the fraction within
+    ``threshold`` of one (target metres); None without such points."""
+    to_scan, _ = scan_tree.query(points, distance_upper_bound=SEEN_REACH * threshold)
+    seen = np.isfinite(to_scan)
+    return float(np.mean(to_scan[seen] <= threshold)) if seen.any() else None
+
+
+def _covered(scan: Points, points: Points, threshold: float) -> float:
+    """The fraction of ``scan`` with one of ``points`` within ``threshold`` (target metres)."""
+    to_points, _ = cKDTree(points).query(scan, distance_upper_bound=threshold)
+    return float(np.mean(np.isfinite(to_points)))
+
+
 def scan_explained_score(source: O3dCloud, target: O3dCloud, fitted: Similarity, threshold: float) -> float:
     """How well ``fitted(source)`` explains the scan ``target`` where the scan saw it (target metres): the geometric
     mean of the target->source fitness within ``threshold`` (every scanned point has a counterpart on a whole
@@ -41,12 +55,10 @@ def scan_explained_score(source: O3dCloud, target: O3dCloud, fitted: Similarity,
     tgt = cloud_points(target)
     if len(src) == 0 or len(tgt) == 0:
         return 0.0
-    to_target, _ = cKDTree(tgt).query(src, distance_upper_bound=SEEN_REACH * threshold)
-    seen = np.isfinite(to_target)
-    if not seen.any():
+    seen = _seen_fit(src, cKDTree(tgt), threshold)
+    if seen is None:
         return 0.0
-    to_source, _ = cKDTree(src).query(tgt, distance_upper_bound=threshold)
-    return math.sqrt(float(np.mean(to_target[seen] <= threshold)) * float(np.mean(np.isfinite(to_source))))
+    return math.sqrt(seen * _covered(tgt, src, threshold))
 
 
 def functional_score(
@@ -71,14 +83,9 @@ def functional_score(
     part = fitted.apply_points(cloud_points(used_fine))
     if len(part) == 0:
         return 0.0
-    to_scan, _ = tgt_fine_tree.query(part, distance_upper_bound=SEEN_REACH * threshold)
-    seen = np.isfinite(to_scan)
-    c_st = float(np.mean(to_scan[seen] <= threshold)) if seen.any() else 0.0
+    c_st = _seen_fit(part, tgt_fine_tree, threshold) or 0.0
     local = tgt_fine_pts[functional_mask(tgt_fine_pts, fitted.apply_points(focus), crop_radius * region_scale)]
-    c_ts = 0.0
-    if local.shape[0] > 0:
-        back, _ = cKDTree(part).query(local, distance_upper_bound=threshold)
-        c_ts = float(np.mean(np.isfinite(back)))
+    c_ts = _covered(local, part, threshold) if local.shape[0] > 0 else 0.0
     return float((explained_score * c_st * c_ts) ** (1.0 / 3.0))
 
 
