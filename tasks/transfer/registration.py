@@ -374,7 +374,9 @@ def register_models(
     # every alignment is asked to explain a scan region of one size: that of the scale whose whole model explains
     # the scanned surface best
     in_range = [
-        (fit[2], fitted.scale) for (_, fit), fitted in zip(whole, refined, strict=True) if lo <= fitted.scale <= hi
+        (explained, fitted.scale)
+        for (_, (_, _, explained)), fitted in zip(whole, refined, strict=True)
+        if lo <= fitted.scale <= hi
     ]
     region_scale = max(in_range)[1] if in_range else 1.0
     for (name, (whole_fit, model_score, explained)), fitted in zip(whole, refined, strict=True):
