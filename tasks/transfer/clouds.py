@@ -43,6 +43,31 @@ def with_normals(pcd: O3dCloud, radius: float, max_nn: int = 30) -> O3dCloud:
     return pcd
 
 
+OUTWARD_NN = 20
+"""Neighbours of each point in the outward normals' fit and orientation graph: a sampled surface's local plane
+is fitted over a few rings of neighbours."""
+
+
+def outward_normals(points: Points) -> Points:
+    """(n, 3) unit normals of a closed model's points (metres), pointing out of the object: open3d's consistent
+    tangent-plane orientation (Hoppe et al. 1992) over ``OUTWARD_NN`` neighbours, with the sign that points most
+    of them away from the centroid."""
+    pcd = to_cloud(points)
+    pcd.estimate_normals(o3d.geometry.KDTreeSearchParamKNN(OUTWARD_NN))
+    pcd.orient_normals_consistent_tangent_plane(OUTWARD_NN)
+    normals: Points = np.asarray(pcd.normals, dtype=np.float64)
+    if np.mean(np.sum((points - points.mean(axis=0)) * normals, axis=1) > 0.0) < 0.5:
+        normals = -normals
+    return normals
+
+
+def even_sample(points: Points, count: int) -> Points:
+    """At most ``count`` of ``points`` picked at even steps through the array (no random draw)."""
+    pick = np.linspace(0, points.shape[0] - 1, min(points.shape[0], count)).astype(int)
+    out: Points = points[pick]
+    return out
+
+
 def median_spacing(points: Points) -> float:
     """Median nearest-neighbour distance of ``points`` (their units)."""
     return float(np.median(np.asarray(to_cloud(points).compute_nearest_neighbor_distance())))

@@ -35,9 +35,11 @@ from tasks.transfer.clouds import (
     check_model,
     cloud_points,
     downsample,
+    even_sample,
     fitness,
     functional_mask,
     median_spacing,
+    outward_normals,
     similarity_icp,
     to_cloud,
     with_normals,
@@ -66,6 +68,9 @@ RESAMPLE_RESCALE = math.log(1.05)
 """The whole-model stage downsamples the source again when the scale moved by more than 5 %."""
 PLANE_ICP_POINTS = 1500
 """Raw source points used by the final point-to-plane similarity refinement."""
+OUTWARD_POINTS = 6000
+"""Model points whose outward normals tell which side of a scanned surface is the camera's: the side is that of
+the nearest, alike over a face, and 6000 put one within about a sixtieth of the object's diagonal."""
 SURFACE_NORMAL_SPACINGS = 3.0
 SURFACE_NORMAL_NN = 12
 """Surface normals of the fine stage: the 12 nearest points within 3 median point spacings, local enough for
@@ -259,6 +264,8 @@ class ScoredPart:
     grip: Points | None
     raw_sample: Points
     raw_normals: Points
+    outward: tuple[Points, Points]
+    """An even sample of the whole model and its outward normals (``clouds.outward_normals``)."""
 
 
 def score_fit(
@@ -286,6 +293,7 @@ def score_fit(
             explained_score,
             fitted,
             used_fine=used_fine,
+            outward=part.outward,
             tgt_fine_pts=fine.fine_points,
             tgt_fine_tree=fine.fine_tree,
             focus=part.focus,
@@ -357,7 +365,17 @@ def register_models(
         for name, start in kept
         for fit in whole_model_fits(src, fine.mid, start, fine.mid_voxel, mid_threshold)
     ]
-    part = ScoredPart(src, used if foc is not None else src, foc, crop_radius, grip_pts, raw_sample, raw_normals)
+    outward_sample = even_sample(src, OUTWARD_POINTS)
+    part = ScoredPart(
+        src,
+        used if foc is not None else src,
+        foc,
+        crop_radius,
+        grip_pts,
+        raw_sample,
+        raw_normals,
+        (outward_sample, outward_normals(outward_sample)),
+    )
     refined = [
         refine_planar(
             refine_points,

@@ -45,6 +45,29 @@ def _covered(scan: Points, points: Points, threshold: float) -> float:
     return float(np.mean(np.isfinite(to_points)))
 
 
+def seen_fitness(
+    part: Points, outward: tuple[Points, Points], scan: Points, scan_tree: cKDTree, threshold: float
+) -> float:
+    """The fraction of the points ``part`` (target metres) a camera that took ``scan`` would have seen that lie
+    on it (within ``threshold``). A point off the scan was seen only when it lies in front of the scanned surface
+    nearest it, on its outer side (the outward normal of the model points ``outward`` nearest that scanned point,
+    both placed as the part is): there it would have hidden the surface. Behind it, it lies inside the object; a
+    part placed right but seen from one side leaves its other side there. 0 without seen points."""
+    if len(part) == 0:
+        return 0.0
+    to_scan, nearest = scan_tree.query(part)
+    on = to_scan <= threshold
+    off = ~on
+    front = 0
+    if off.any():
+        model, normals = outward
+        hit = scan[nearest[off]]
+        _, k = cKDTree(model).query(hit)
+        front = int(np.count_nonzero(np.sum((part[off] - hit) * normals[k], axis=1) > 0.0))
+    seen = int(np.count_nonzero(on)) + front
+    return float(np.count_nonzero(on) / seen) if seen else 0.0
+
+
 def scan_explained_score(source: O3dCloud, target: O3dCloud, fitted: Similarity, threshold: float) -> float:
     """How well ``fitted(source)`` explains the scan ``target`` where the scan saw it (target metres): the geometric
     mean of the target->source fitness within ``threshold`` (every scanned point has a counterpart on a whole
@@ -66,6 +89,7 @@ def functional_score(
     fitted: Similarity,
     *,
     used_fine: O3dCloud,
+    outward: tuple[Points, Points],
     tgt_fine_pts: Points,
     tgt_fine_tree: cKDTree,
     focus: Points,
@@ -74,16 +98,18 @@ def functional_score(
     threshold: float,
 ) -> float:
     """Ranking score led by the functional part: the cube root of the product of ``explained_score`` (the whole
-    models' fit over the scanned surface), the part's fit onto the scan where the scan saw it (its points within
-    ``SEEN_REACH`` thresholds of a scanned point) and the fit of the scan's region around the carried focus points
-    back onto the part. Both directions of the part count only what the scan shows: its unseen side is no
-    evidence against an alignment. The scan's region has the radius ``crop_radius`` (source metres) times
-    ``region_scale`` for every alignment judged together, so a shrunken alignment is asked to explain as much of
-    the scan as a full-sized one is, not a region shrunk with it. Lengths in target metres unless named."""
+    models' fit over the scanned surface), the part's fit onto the scan over the points a camera would have seen
+    (``seen_fitness``) and the fit of the scan's region around the carried focus points back onto the part. Both
+    directions of the part count only what the scan shows: its hidden side is no evidence against an alignment.
+    The scan's region has the radius ``crop_radius`` (source metres) times ``region_scale`` for every alignment
+    judged together, so a shrunken alignment is asked to explain as much of the scan as a full-sized one is, not
+    a region shrunk with it. ``outward``: model points and their outward normals (source frame). Lengths in target
+    metres unless named."""
     part = fitted.apply_points(cloud_points(used_fine))
     if len(part) == 0:
         return 0.0
-    c_st = _seen_fit(part, tgt_fine_tree, threshold) or 0.0
+    placed = (fitted.apply_points(outward[0]), outward[1] @ fitted.rotation.T)
+    c_st = seen_fitness(part, placed, tgt_fine_pts, tgt_fine_tree, threshold)
     local = tgt_fine_pts[functional_mask(tgt_fine_pts, fitted.apply_points(focus), crop_radius * region_scale)]
     c_ts = _covered(local, part, threshold) if local.shape[0] > 0 else 0.0
     return float((explained_score * c_st * c_ts) ** (1.0 / 3.0))

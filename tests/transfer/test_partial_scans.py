@@ -8,8 +8,9 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from scipy.spatial import cKDTree
 
-from tasks.transfer.clouds import downsample, similarity_icp
+from tasks.transfer.clouds import downsample, even_sample, outward_normals, similarity_icp
 from tasks.transfer.registration import both_ways_icp, functional_region, prepare_target, register_models
 from tasks.transfer.registration_types import Alignment, RegistrationParams
 from tasks.transfer.scoring import (
@@ -17,6 +18,7 @@ from tasks.transfer.scoring import (
     grip_score,
     poor_fit_warning,
     scan_explained_score,
+    seen_fitness,
     two_way_score,
 )
 from tasks.transfer.similarity import Similarity
@@ -110,6 +112,8 @@ def test_a_shrunken_alignment_is_asked_to_explain_as_much_of_the_scan() -> None:
     assert crop is not None
     knob = cabinet.focus[0]
     shrunk = truth.compose(Similarity(0.7, np.eye(3), 0.3 * knob))
+    sample = even_sample(cabinet.points, 6000)
+    outward = (sample, outward_normals(sample))
 
     def score(fitted: Similarity, region_scale: float) -> float:
         used_fine = downsample(cabinet.points[used_idx], fine.fine_voxel / fitted.scale)
@@ -117,6 +121,7 @@ def test_a_shrunken_alignment_is_asked_to_explain_as_much_of_the_scan() -> None:
             1.0,
             fitted,
             used_fine=used_fine,
+            outward=outward,
             tgt_fine_pts=fine.fine_points,
             tgt_fine_tree=fine.fine_tree,
             focus=cabinet.focus,
@@ -128,6 +133,25 @@ def test_a_shrunken_alignment_is_asked_to_explain_as_much_of_the_scan() -> None:
     assert score(truth, truth.scale) > 0.9
     assert score(shrunk, truth.scale) < score(shrunk, shrunk.scale) - 0.05
     assert score(shrunk, truth.scale) < 0.7
+
+
+def test_a_model_off_the_scan_counts_only_where_the_camera_would_have_seen_it() -> None:
+    """A view of a cabinet's front: placed right, the model's back and sides lie behind the scanned front (hidden)
+    and do not count, so nearly all it shows is on the scan, where a plain fitness sees a fifth of it; slid 25 mm
+    towards the camera, its front would have hidden the scanned one and counts against it."""
+    cabinet = shapes.cabinet(RNG(3), n=9000)
+    scan = _view_scan(cabinet, Similarity.identity(), np.array([0.0, -1.0, 0.0]), 0.2)  # the front and the knob
+    sample = even_sample(cabinet.points, 6000)
+    normals = outward_normals(sample)
+    tree, threshold = cKDTree(scan), 0.005
+
+    def seen(shift_y: float) -> float:
+        shift = np.array([0.0, shift_y, 0.0])
+        return seen_fitness(cabinet.points + shift, (sample + shift, normals), scan, tree, threshold)
+
+    assert seen(0.0) > 0.9
+    assert np.mean(tree.query(cabinet.points)[0] <= threshold) < 0.3
+    assert seen(-0.025) < 0.05
 
 
 def test_a_stretched_bottle_is_judged_on_its_stretched_fit() -> None:
