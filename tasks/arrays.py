@@ -19,6 +19,8 @@ Labels = npt.NDArray[np.int64]
 """(n,) int64 segment labels."""
 BoolArray = npt.NDArray[np.bool_]
 """Boolean mask."""
+IntArray = npt.NDArray[np.int64]
+"""(n,) int64 indices."""
 
 
 def check_points(values: object, name: str) -> Points:

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import open3d as o3d
 
-from tasks.arrays import BoolArray, FloatArray, Points, check_points
+from tasks.arrays import BoolArray, FloatArray, IntArray, Points, check_points
 from tasks.errors import TransferError
 from tasks.transfer.similarity import Similarity
 
@@ -61,11 +61,22 @@ def outward_normals(points: Points) -> Points:
     return normals
 
 
-def even_sample(points: Points, count: int) -> Points:
-    """At most ``count`` of ``points`` picked at even steps through the array (no random draw)."""
-    pick = np.linspace(0, points.shape[0] - 1, min(points.shape[0], count)).astype(int)
-    out: Points = points[pick]
+def even_indices(n: int, count: int) -> IntArray:
+    """At most ``count`` indices into ``n`` items, at even steps through them (no random draw)."""
+    out: IntArray = np.linspace(0, n - 1, min(n, count)).astype(np.int64)
     return out
+
+
+def even_sample(points: Points, count: int) -> Points:
+    """At most ``count`` of ``points`` picked at even steps through the array (``even_indices``)."""
+    out: Points = points[even_indices(points.shape[0], count)]
+    return out
+
+
+def outward_sample(points: Points, count: int) -> tuple[Points, Points]:
+    """An even sample of at most ``count`` of a closed model's ``points`` (metres) and their outward normals."""
+    sample = even_sample(points, count)
+    return sample, outward_normals(sample)
 
 
 def median_spacing(points: Points) -> float:

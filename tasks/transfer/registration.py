@@ -35,11 +35,10 @@ from tasks.transfer.clouds import (
     check_model,
     cloud_points,
     downsample,
-    even_sample,
     fitness,
     functional_mask,
     median_spacing,
-    outward_normals,
+    outward_sample,
     similarity_icp,
     to_cloud,
     with_normals,
@@ -365,7 +364,6 @@ def register_models(
         for name, start in kept
         for fit in whole_model_fits(src, fine.mid, start, fine.mid_voxel, mid_threshold)
     ]
-    outward_sample = even_sample(src, OUTWARD_POINTS)
     part = ScoredPart(
         src,
         used if foc is not None else src,
@@ -374,7 +372,7 @@ def register_models(
         grip_pts,
         raw_sample,
         raw_normals,
-        (outward_sample, outward_normals(outward_sample)),
+        outward_sample(src, OUTWARD_POINTS),
     )
     refined = [
         refine_planar(

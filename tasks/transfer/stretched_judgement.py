@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from tasks.arrays import Points
-from tasks.transfer.clouds import downsample, even_sample, functional_mask, median_spacing, outward_normals
+from tasks.transfer.clouds import downsample, even_indices, functional_mask, median_spacing, outward_sample
 from tasks.transfer.registration import (
     OUTWARD_POINTS,
     PLANE_ICP_POINTS,
@@ -48,8 +48,8 @@ def stretched_alignment(
     if focus is not None and crop is not None:
         mask, stretched_focus = functional_mask(source, focus, crop), stretched.stretch_points(focus)
     used = stretched_src[mask]
-    pick = np.linspace(0, used.shape[0] - 1, min(used.shape[0], PLANE_ICP_POINTS)).astype(int)  # an even sample
-    outward = even_sample(source, OUTWARD_POINTS)
+    pick = even_indices(used.shape[0], PLANE_ICP_POINTS)
+    outward, outward_normals = outward_sample(source, OUTWARD_POINTS)
     normals = stretched.stretch_normals(surface_normals(source, median_spacing(source)))[mask]
     part = ScoredPart(
         stretched_src,
@@ -59,7 +59,7 @@ def stretched_alignment(
         stretched.stretch_points(grip) if grip is not None and len(grip) else None,
         used[pick],
         normals[pick],
-        (stretched.stretch_points(outward), stretched.stretch_normals(outward_normals(outward))),
+        (stretched.stretch_points(outward), stretched.stretch_normals(outward_normals)),
     )
     fitted = stretched.similarity
     mid = downsample(stretched_src, fine.mid_voxel / fitted.scale)

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from tasks.transfer.clouds import downsample, even_sample, outward_normals, similarity_icp
+from tasks.transfer.clouds import downsample, outward_sample, similarity_icp
 from tasks.transfer.registration import both_ways_icp, functional_region, prepare_target, register_models
 from tasks.transfer.registration_types import Alignment, RegistrationParams
 from tasks.transfer.scoring import (
@@ -112,8 +112,7 @@ def test_a_shrunken_alignment_is_asked_to_explain_as_much_of_the_scan() -> None:
     assert crop is not None
     knob = cabinet.focus[0]
     shrunk = truth.compose(Similarity(0.7, np.eye(3), 0.3 * knob))
-    sample = even_sample(cabinet.points, 6000)
-    outward = (sample, outward_normals(sample))
+    outward = outward_sample(cabinet.points, 6000)
 
     def score(fitted: Similarity, region_scale: float) -> float:
         used_fine = downsample(cabinet.points[used_idx], fine.fine_voxel / fitted.scale)
@@ -141,8 +140,7 @@ def test_a_model_off_the_scan_counts_only_where_the_camera_would_have_seen_it() 
     towards the camera, its front would have hidden the scanned one and counts against it."""
     cabinet = shapes.cabinet(RNG(3), n=9000)
     scan = _view_scan(cabinet, Similarity.identity(), np.array([0.0, -1.0, 0.0]), 0.2)  # the front and the knob
-    sample = even_sample(cabinet.points, 6000)
-    normals = outward_normals(sample)
+    sample, normals = outward_sample(cabinet.points, 6000)
     tree, threshold = cKDTree(scan), 0.005
 
     def seen(shift_y: float) -> float:
