@@ -6,10 +6,11 @@ rigid point-to-plane fit of that neighbourhood alone, started from the stretched
 only when its normals pin the axis across itself (their scatter across the axis has both eigenvalues at least
 ``MIN_LATERAL``: two faces meeting at a hinge, a lever's sides), and when its fit pairs enough points; else the
 whole model's fit places the axis. Each placement comes with its spread (``stretch.line_spread``, from the
-model's plane normals: ``face_normals``; a neighbourhood's at least how far its fit moves with each region of its
-pairs left out, ``block_jackknife``), widened to cover how far the neighbourhood moved the axis from the whole
-model's placement when the two fits contradict each other (``AGREEMENT_SIGMAS``), and by the misfit of faces whose
-pairs lie off to one side on average, which the pairs' scatter does not show (``face_misfit``). The
+model's plane normals: ``face_normals``; a neighbourhood's with the uncertainty of the whole model's proportions,
+which its rigid fit holds, and at least how far it moves with each region of its pairs left out,
+``block_jackknife``), widened to cover how far the neighbourhood moved the axis from the whole model's placement
+when the two fits contradict each other (``AGREEMENT_SIGMAS``), and by the misfit of faces whose pairs lie off to
+one side on average, which the pairs' scatter does not show (``face_misfit``). The
 neighbourhood's fit starts from the whole model's, so before its own pairs it knows the axis as well as the whole
 model placed it (its translation prior is the whole model's sigma there). Last, the edges of the model's flat
 faces that a rotation's axis runs along (a door's front face at its hinge) are located in the scan and update the
@@ -201,6 +202,7 @@ def fit_axis(
         plane_weight=weight,
         model=(source, model.normals),
         start_pos_std_m=max(threshold_m, global_spread.pos_std_m) if math.isfinite(global_spread.pos_std_m) else None,
+        held_factor_cov=global_spread.factor_cov,
     )
     if spread.pairs < MIN_REGION_PAIRS:
         return AxisFit(whole, global_spread, local=False)

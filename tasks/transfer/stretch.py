@@ -337,6 +337,8 @@ class FitSpread:
     bias_cov: FloatArray | None = None
     """(3, 3) covariance across the axis of the placement's systematic error from faces whose pairs lie off to
     one side (``face_misfit``), metres squared; in ``pos_cov`` only once ``axis_fit.with_bias`` added it."""
+    factor_cov: FloatArray | None = None
+    """(3, 3) covariance of the fit's relative stretch factors (along its box axes), when they were free."""
 
     def scaled_cov(self) -> FloatArray | None:
         """``pos_cov`` scaled to the (possibly widened) ``pos_std_m``; None without one."""
@@ -397,6 +399,7 @@ def line_spread(
     plane_weight: FloatArray | None = None,
     model: tuple[Points, Points] | None = None,
     start_pos_std_m: float | None = None,
+    held_factor_cov: FloatArray | None = None,
 ) -> FitSpread:
     """The covariance of ``fitted``'s unknowns carried to the line (point, unit direction; source frame): the
     inverse of the pairs' information over the residual variance (``CORRELATED_POINTS`` pairs counting as one)
@@ -410,7 +413,12 @@ def line_spread(
     source point, 0 where its normal states no plane (a border between faces, ``face_normals``): such pairs
     inform nothing. ``model``: the whole model's points and normals (source frame; ``source`` is among them):
     a pair informs only where the model about it lies on its plane, over the pair's offset along it, within the
-    model's own noise (``face_normals.plane_holds``)."""
+    model's own noise (``face_normals.plane_holds``).
+
+    ``held_factor_cov``: for a fit without a free stretch, the (3, 3) covariance of the relative stretch factors
+    it holds at another fit's values (``fitted``'s factors, axes and centre: the whole model's). The rigid fit
+    follows an error in them (it balances its pairs about the stretched part), so the line moves by the error
+    times its total derivative, through the fit's own response (``-info_tt^-1 info_tf``) and directly."""
     tree = cKDTree(target)
     moved, turned, idx, ok = _matched(
         fitted,
@@ -438,8 +446,9 @@ def line_spread(
     a, residual, w = _linear_system(fitted, p, q, n, along=along, huber=dist_m / 3.0, plane_weight=weight)
     plane_rows = len(p)
     rms = float(np.sqrt(np.mean(residual[:plane_rows] ** 2)))
-    a = a[:plane_rows, :unknowns]  # the planes' information (the point terms see the sampling, not the surface)
-    info = (a * w[:plane_rows, None]).T @ a / CORRELATED_POINTS / max(rms, 1e-9) ** 2
+    a = a[:plane_rows]  # the planes' information (the point terms see the sampling, not the surface)
+    full = (a * w[:plane_rows, None]).T @ a / CORRELATED_POINTS / max(rms, 1e-9) ** 2
+    info = full[:unknowns, :unknowns]
     centre = p.mean(axis=0)
     reach = float(np.sqrt(np.mean(((p - centre) ** 2).sum(axis=1))))
     if start_pos_std_m is None:
@@ -454,6 +463,12 @@ def line_spread(
     across = np.eye(3) - np.outer(moved_dir, moved_dir)
     cov_pos = across @ jac @ cov @ jac.T @ across
     turn = jac_dir @ cov @ jac_dir.T
+    if held_factor_cov is not None and not free_stretch:
+        response = -cov @ full[:6, 6:]  # (6, 3): how the rigid fit follows a change of the held factors
+        jac9, jac_dir9 = line_jacobians(fitted, line, centre, unknowns=9)
+        total, total_dir = jac9[:, :6] @ response + jac9[:, 6:], jac_dir9[:, :6] @ response + jac_dir9[:, 6:]
+        cov_pos = cov_pos + across @ total @ held_factor_cov @ total.T @ across
+        turn = turn + total_dir @ held_factor_cov @ total_dir.T
     bias = bias_cov(
         source[ok],
         source_normals[ok],
@@ -470,6 +485,7 @@ def line_spread(
         int(ok.sum()),
         cov_pos,
         bias,
+        np.asarray(cov[6:, 6:], dtype=np.float64) if free_stretch else None,
     )
 
 

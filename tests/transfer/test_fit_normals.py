@@ -145,3 +145,34 @@ def test_the_axis_keeps_its_own_sigma_when_the_fits_agree() -> None:
     assert fit.local
     assert fit.spread.pos_std_m == fit.fit_pos_std_m
     assert fit.spread.pos_std_m < MAX_AXIS_POS_STD_M
+
+
+def test_a_held_stretch_moves_an_axis_beside_its_part_by_its_offset_from_the_part() -> None:
+    # A lever's arm 20-150 mm to one side of its spindle, fitted rigidly with the door's stretch held (stretched
+    # about the door's centre 400 mm away): a 10 % error of the stretch along the arm moves the arm's balance
+    # point, the middle of its end faces 85 mm from the spindle, and the spindle with it by 8.5 mm.
+    rng = np.random.default_rng(4)
+    source, source_n = shapes.sample_parts(
+        shapes.box(np.array([0.13, 0.014, 0.02]), np.array([0.085, 0.0, 0.0])), 4000, rng
+    )
+    target = source + rng.normal(scale=1e-3, size=source.shape)
+    fitted = Stretched(Similarity.identity(), np.eye(3), np.ones(3), np.array([0.4, 0.0, 0.0]))
+    line = (np.zeros(3), np.array([0.0, 1.0, 0.0]))
+    spreads = [
+        line_spread(
+            fitted,
+            source,
+            source_n,
+            target=target,
+            target_normals=source_n,
+            dist_m=0.01,
+            line=line,
+            free_stretch=False,
+            held_factor_cov=held,
+        )
+        for held in (None, np.diag([0.1**2, 0.0, 0.0]))
+    ]
+    assert spreads[0].pos_cov is not None and spreads[1].pos_cov is not None
+    added = spreads[1].pos_cov - spreads[0].pos_cov
+    assert np.sqrt(added[0, 0]) == pytest.approx(0.0085, rel=0.1)  # along the arm
+    assert abs(added[2, 2]) < 1e-8  # across it the stretch moves nothing
