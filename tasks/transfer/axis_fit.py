@@ -164,6 +164,7 @@ def fit_axis(
         region,
         normals,
         target,
+        target_normals,
         line=line,
         sigma_m=global_spread.worst_pos_std_m,
         radius_m=radius_m,

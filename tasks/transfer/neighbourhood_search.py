@@ -8,8 +8,12 @@ settles on a partial overlap and reports the sigma of that basin (a lever 19 mm 
 
 So when three of the whole model's sigmas across the axis exceed the distance the fit starts with (its reach),
 the neighbourhood is first slid across the axis over a grid covering those three sigmas (within its radius), and
-each offset is scored by the fraction of its points that pin the axis (normals across it) with a scan point within
-the features' own distance (``dist_m``, finer than the whole model's threshold). When the whole model's own
+each offset is scored by how closely the points that pin the axis (normals across it) lie on the scan: each
+counts by a Gaussian of its distance along its normal to its pair (the nearest scan point of the same facing
+within the features' own distance ``dist_m``, finer than the whole model's threshold: ``pairing``), half a grid
+step wide (where the true offset may lie from the nearest one). A count of pairs within the distance alone
+rewards covering the scan rather than lying on it: a lever arm 20 mm tall, scanned on its top face only, slid
+half its height up pairs both its faces, 10 mm off, with the scanned one. When the whole model's own
 placement scores as well as the best offset (within the score's binomial noise), nothing says the features lie
 elsewhere and the fit starts there as before (a hinge, free along its face, scores alike all along it). Else it
 starts from the best offset, at twice the features' distance and then at it. Offsets more than twice that
@@ -27,8 +31,9 @@ from scipy.spatial import cKDTree
 
 from tasks.arrays import Points, Vector3
 from tasks.fit.geometry import perpendicular_basis
+from tasks.transfer.pairing import nearest_compatible
 from tasks.transfer.similarity import Similarity
-from tasks.transfer.stretch import CORRELATED_POINTS, Stretched
+from tasks.transfer.stretch import CORRELATED_POINTS, NORMAL_COS, Stretched, carried_normals
 
 SEARCH_SIGMAS = 3.0
 """The search covers three of the whole model's sigmas across the axis (where its placement may lie)."""
@@ -57,6 +62,7 @@ def search_start(
     region: Points,
     normals: Points,
     target: Points,
+    target_normals: Points,
     *,
     line: tuple[Vector3, Vector3],
     sigma_m: float,
@@ -65,7 +71,8 @@ def search_start(
     reach_m: float,
 ) -> SearchResult | None:
     """The start for the fit of ``region`` (source frame, its unit ``normals``) about ``line`` (source point, unit
-    direction), from ``whole`` whose sigma across the axis is ``sigma_m``; ``target``: the scan (m, 3); ``dist_m``:
+    direction), from ``whole`` whose sigma across the axis is ``sigma_m``; ``target``: the scan (m, 3) and
+    ``target_normals`` its unit normals (unsigned); ``dist_m``:
     the fit's last correspondence distance and ``reach_m`` its first; ``radius_m``: the neighbourhood's radius
     (source metres). None when the fit reaches where the whole model may have put the axis (three sigmas within
     ``reach_m``), no point pins the axis, or the whole model's placement scores as well as the best offset."""
@@ -77,6 +84,7 @@ def search_start(
     if int(pins.sum()) < 2 * CORRELATED_POINTS:
         return None
     carried = whole.apply_points(region[pins])
+    facing = carried_normals(whole, normals[pins])
     _, axis_dir = whole.carry_line(pos, direction)
     u, v = perpendicular_basis(axis_dir)
     tree = cKDTree(target)  # only when searching: the scan may hold hundreds of thousands of points
@@ -84,9 +92,12 @@ def search_start(
     ticks = step * np.arange(-math.floor(extent / step), math.floor(extent / step) + 1)
     offsets = np.array([(a, b) for a in ticks for b in ticks if a * a + b * b <= extent * extent + 1e-12])
     scores = np.empty(len(offsets))
+    width = step / 2.0
     for k, (a, b) in enumerate(offsets):
-        dist, _ = tree.query(carried + a * u + b * v, distance_upper_bound=dist_m)
-        scores[k] = float(np.isfinite(dist).mean())
+        moved = carried + a * u + b * v
+        idx, found = nearest_compatible(tree, moved, facing, target_normals, dist_m=dist_m, min_cos=NORMAL_COS)
+        gap = np.einsum("ij,ij->i", facing[found], tree.data[idx[found]] - moved[found])
+        scores[k] = float(np.exp(-0.5 * (gap / width) ** 2).sum()) / len(moved)
     best = int(np.argmax(scores))
     n_eff = carried.shape[0] / CORRELATED_POINTS
     noise = NOISE_SIGMAS * math.sqrt(max(scores[best] * (1.0 - scores[best]), 1.0 / n_eff) / n_eff)

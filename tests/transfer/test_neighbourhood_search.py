@@ -45,9 +45,9 @@ def panel_with(levers: list[np.ndarray]) -> list[Part]:
     return parts
 
 
-def model_and_scan(levers: list[np.ndarray], seed: int) -> tuple[Points, Points, Points]:
+def model_and_scan(levers: list[np.ndarray], seed: int) -> tuple[Points, Points, Points, Points]:
     """The demonstrated panel's region about the spindle (one lever, 0.5 mm noise) with its normals, and a scan
-    of a panel with ``levers`` from its front (1.5 mm noise)."""
+    of a panel with ``levers`` from its front (1.5 mm noise) with its normals."""
     rng = np.random.default_rng(seed)
     source, normals = shapes.sample_parts(panel_with([np.zeros(3)]), 30_000, rng)
     near = np.hypot(source[:, 0], source[:, 1]) <= 0.1
@@ -56,7 +56,7 @@ def model_and_scan(levers: list[np.ndarray], seed: int) -> tuple[Points, Points,
     view = np.array([0.3, -0.2, 1.0]) / np.linalg.norm([0.3, -0.2, 1.0])
     seen = scan_normals @ view > 0.1
     scan = scan[seen] + rng.normal(scale=1.5e-3, size=(int(seen.sum()), 3))
-    return source, normals[near], scan
+    return source, normals[near], scan, scan_normals[seen]
 
 
 def placed_off(start: Stretched) -> float:
@@ -71,10 +71,10 @@ def loose(offset: tuple[float, float]) -> Stretched:
 
 
 def test_a_loosely_placed_lever_is_found_across_the_axis() -> None:
-    source, normals, scan = model_and_scan([np.zeros(3)], seed=3)
+    source, normals, scan, scan_normals = model_and_scan([np.zeros(3)], seed=3)
     whole = loose((0.03, 0.025))  # 39 mm off: beyond a local fit's reach of a lever 20 mm tall
     found = search_start(
-        whole, source, normals, scan, line=AXIS, sigma_m=0.017, radius_m=0.1, dist_m=0.008, reach_m=0.02
+        whole, source, normals, scan, scan_normals, line=AXIS, sigma_m=0.017, radius_m=0.1, dist_m=0.008, reach_m=0.02
     )
     assert found is not None
     assert placed_off(found.start) < 0.008 < placed_off(whole)
@@ -82,16 +82,30 @@ def test_a_loosely_placed_lever_is_found_across_the_axis() -> None:
 
 
 def test_two_levers_the_scan_cannot_tell_apart_are_reported() -> None:
-    source, normals, scan = model_and_scan([np.zeros(3), np.array([0.0, 0.07, 0.0])], seed=4)
+    source, normals, scan, scan_normals = model_and_scan([np.zeros(3), np.array([0.0, 0.07, 0.0])], seed=4)
     whole = loose((0.0, 0.035))  # half-way between them
     found = search_start(
-        whole, source, normals, scan, line=AXIS, sigma_m=0.025, radius_m=0.1, dist_m=0.008, reach_m=0.02
+        whole, source, normals, scan, scan_normals, line=AXIS, sigma_m=0.025, radius_m=0.1, dist_m=0.008, reach_m=0.02
     )
     assert found is not None
     assert found.spread_m > 0.06  # both places: the fit's sigma must cover their distance
 
 
 def test_a_tight_placement_is_left_to_the_fit() -> None:
-    source, normals, scan = model_and_scan([np.zeros(3)], seed=5)
-    assert search_start(loose((0.001, 0.0)), source, normals, scan, line=AXIS, sigma_m=0.005, radius_m=0.1,
-                        dist_m=0.008, reach_m=0.02) is None  # fmt: skip
+    source, normals, scan, scan_normals = model_and_scan([np.zeros(3)], seed=5)
+    assert search_start(loose((0.001, 0.0)), source, normals, scan, scan_normals, line=AXIS, sigma_m=0.005,
+                        radius_m=0.1, dist_m=0.008, reach_m=0.02) is None  # fmt: skip
+
+
+def test_a_lever_seen_on_one_face_is_found_where_that_face_lies() -> None:
+    # The scan sees the arm's lower face (-y) only. Searched at a distance over half the arm's 20 mm height, the
+    # model slid 10 mm down has both its faces that far from the scanned one; only the place where the model's
+    # lower face lies on it is the lever's.
+    source, normals, scan, scan_normals = model_and_scan([np.zeros(3)], seed=6)
+    whole = loose((0.0, 0.03))
+    found = search_start(
+        whole, source, normals, scan, scan_normals, line=AXIS, sigma_m=0.017, radius_m=0.1, dist_m=0.014,
+        reach_m=0.02,
+    )  # fmt: skip
+    assert found is not None
+    assert placed_off(found.start) < 0.005
