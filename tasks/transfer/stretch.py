@@ -459,13 +459,13 @@ def line_spread(
     cov = np.linalg.inv(info + np.diag(prior))
     pos, direction = line
     moved_dir = fitted.carry_line(pos, direction)[1]
-    jac, jac_dir = line_jacobians(fitted, line, centre, unknowns=unknowns)
+    jac9, jac_dir9 = line_jacobians(fitted, line, centre, unknowns=9)
+    jac, jac_dir = jac9[:, :unknowns], jac_dir9[:, :unknowns]
     across = np.eye(3) - np.outer(moved_dir, moved_dir)
     cov_pos = across @ jac @ cov @ jac.T @ across
     turn = jac_dir @ cov @ jac_dir.T
     if held_factor_cov is not None and not free_stretch:
         response = -cov @ full[:6, 6:]  # (6, 3): how the rigid fit follows a change of the held factors
-        jac9, jac_dir9 = line_jacobians(fitted, line, centre, unknowns=9)
         total, total_dir = jac9[:, :6] @ response + jac9[:, 6:], jac_dir9[:, :6] @ response + jac_dir9[:, 6:]
         cov_pos = cov_pos + across @ total @ held_factor_cov @ total.T @ across
         turn = turn + total_dir @ held_factor_cov @ total_dir.T
